@@ -1,0 +1,71 @@
+# physlab — `make lab` opens the lessons, `make test` runs everything. Both set up .venv first.
+#
+# Override on the command line, e.g.
+#   make test TORCH_SPEC="torch --index-url https://download.pytorch.org/whl/cpu"
+#   make lab  TORCH_SPEC="torch --index-url https://download.pytorch.org/whl/cu124"
+PYTHON     ?= python3
+VENV       ?= .venv
+# The CPU build of PyTorch that these machines carry on local disk (an unpinned `torch`
+# would download several GB of CUDA libraries).
+TORCH_SPEC ?= torch==2.13.0
+EXTRAS     ?= all
+PYTEST_ARGS ?=
+LAB_ARGS   ?=
+
+BIN   := $(VENV)/bin
+PY    := $(BIN)/python
+STAMP := $(VENV)/.physlab-installed
+
+.PHONY: help venv lab test test-unit test-lessons test-e2e browser reproduce bench clean distclean
+
+help:
+	@echo "make lab        set up .venv and open JupyterLab on lessons/"
+	@echo "make test       set up .venv and run the whole suite (unit tests, executed lessons, browser test)"
+	@echo "make reproduce  execute every lesson headless, write figures to reports/"
+	@echo "make bench      run the benchmarks in benchmarks/"
+
+# (Re)install whenever pyproject.toml changes.
+$(STAMP): pyproject.toml
+	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install --quiet --upgrade pip setuptools wheel
+	$(PY) -m pip install --quiet $(TORCH_SPEC)
+	$(PY) -m pip install --quiet -e ".[$(EXTRAS)]"
+	@touch $(STAMP)
+
+venv: $(STAMP)
+
+# The browser test drives JupyterLab in the system Chromium; install it when we can (root + apt).
+browser:
+	@if command -v chromium >/dev/null 2>&1; then :; \
+	elif [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then \
+		echo "installing Debian chromium for the browser test"; \
+		(apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium >/dev/null) \
+		|| echo "could not install chromium; the browser test will be skipped"; \
+	else echo "no chromium and no root apt: the browser test will be skipped"; fi
+
+lab: $(STAMP)
+	$(BIN)/jupyter lab --notebook-dir=lessons $(if $(filter 0,$(shell id -u)),--allow-root) $(LAB_ARGS)
+
+test-unit: $(STAMP)
+	$(PY) -m pytest tests -m "not e2e" $(PYTEST_ARGS)
+
+test-lessons: $(STAMP)
+	$(PY) -m pytest --nbval-lax --nbval-current-env --nbval-cell-timeout=300 lessons $(PYTEST_ARGS)
+
+test-e2e: $(STAMP) browser
+	$(PY) -m pytest tests -m e2e $(PYTEST_ARGS)
+
+# pytest exits 5 when it collects nothing; make treats any non-zero exit as failure.
+test: test-unit test-lessons test-e2e
+
+reproduce: $(STAMP)
+	$(PY) -m physlab.cli reproduce --out reports
+
+bench: $(STAMP)
+	$(PY) benchmarks/run_all.py
+
+clean:
+	rm -rf reports .pytest_cache **/__pycache__
+
+distclean: clean
+	rm -rf $(VENV)

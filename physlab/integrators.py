@@ -1,0 +1,760 @@
+"""Time integrators: generic ODE steppers and steppers for mechanical systems.
+
+Two entry points, both pure functions (state in, trajectory out):
+
+* :func:`integrate` solves a first-order initial value problem ``y' = f(t, y)``,
+  ``y(t0) = y0`` with a fixed step. It is what the course slides build up from Newton's
+  law: writing ``y = (x, v)`` turns ``x'' = M^-1 F`` (slides eq. 1) into the first-order
+  system ``y' = (v, M^-1 F)`` (slides eq. 2).
+* :func:`simulate` advances a second-order mechanical system (``mass``, ``force``, and for
+  implicit Euler ``force_jacobians``) such as :class:`physlab.springs.SpringSystem`.
+
+References
+----------
+[slides] T. Popa, "Animation for Computer Games — Physics-based Animation", COMP 477/6311
+    (``../shared/seeds/004_b49e6b3b92bd43c3.txt``): eqs. 1–7, 9, 12.
+[PA] PhysAnimator supplementary (``000_0a4fa540c2202b0e.txt``), Eq. (7): semi-implicit Euler.
+[BW] D. Baraff and A. Witkin, "Large steps in cloth simulation", SIGGRAPH 1998, Eq. (6).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Callable, Sequence
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+__all__ = [
+    "METHODS",
+    "MECHANICAL_METHODS",
+    "ConvergenceError",
+    "SimulationDiverged",
+    "NewtonResult",
+    "ODEResult",
+    "SimulationResult",
+    "LinearSolver",
+    "newton_solve",
+    "finite_difference_jacobian",
+    "integrate",
+    "simulate",
+    "stability_function",
+    "convergence_order",
+]
+
+#: Methods of :func:`integrate` (explicit ones first).
+METHODS = ("explicit_euler", "midpoint", "heun", "rk4", "implicit_euler", "trapezoidal")
+#: Methods of :func:`simulate`.
+MECHANICAL_METHODS = ("explicit_euler", "semi_implicit_euler", "implicit_euler")
+IMPLICIT_METHODS = ("implicit_euler", "trapezoidal")
+#: Classical order of accuracy of each method of :func:`integrate`.
+ORDER = {"explicit_euler": 1, "midpoint": 2, "heun": 2, "rk4": 4, "implicit_euler": 1, "trapezoidal": 2}
+
+
+class ConvergenceError(RuntimeError):
+    """Newton–Raphson did not converge. ``residuals`` holds the residual norm per iteration."""
+
+    def __init__(self, message: str, residuals: Sequence[float]):
+        super().__init__(message)
+        self.residuals = list(residuals)
+
+
+class SimulationDiverged(FloatingPointError):
+    """The state became non-finite (the simulation blew up).
+
+    Attributes
+    ----------
+    step : int
+        Index of the step whose result was not finite (``1`` = the first step).
+    t : float
+        Time at the start of that step.
+    dt : float
+        Step size in use.
+    result : ODEResult or SimulationResult
+        The trajectory up to and including the last finite state, for plotting.
+    """
+
+    def __init__(self, step: int, t: float, dt: float, method: str, result):
+        self.step, self.t, self.dt, self.method, self.result = step, t, dt, method, result
+        hint = (
+            "use a smaller dt or an implicit method ('implicit_euler')"
+            if method not in ("implicit_euler", "trapezoidal")
+            else "use a smaller dt"
+        )
+        super().__init__(
+            f"simulation blew up at step {step} (t = {t:.6g}, dt = {dt:g}, method '{method}'): "
+            f"the state is no longer finite; {hint}"
+        )
+
+
+@dataclass
+class NewtonResult:
+    """Solution of ``G(z) = 0`` by :func:`newton_solve`.
+
+    ``residuals[k]`` is ``|G(z_k)|`` (Euclidean norm) before iteration ``k``; the last entry
+    belongs to the returned ``z``.
+    """
+
+    z: np.ndarray
+    residuals: list
+    iterations: int
+    converged: bool
+
+
+@dataclass
+class ODEResult:
+    """Trajectory of :func:`integrate`: ``t`` ``(n+1,)``, ``y`` ``(n+1, d)``.
+
+    ``newton`` holds, for implicit methods, one list of Newton residual norms per step.
+    ``nfev`` counts evaluations of ``f``.
+    """
+
+    t: np.ndarray
+    y: np.ndarray
+    method: str
+    dt: float
+    nfev: int = 0
+    newton: list = field(default_factory=list)
+
+
+@dataclass
+class SimulationResult:
+    """Trajectory of :func:`simulate`: ``t`` ``(n_steps+1,)``, ``x`` and ``v`` ``(n_steps+1, n, d)``.
+
+    ``newton`` holds, for ``implicit_euler``, one list of Newton residual norms per step.
+    """
+
+    t: np.ndarray
+    x: np.ndarray
+    v: np.ndarray
+    method: str
+    dt: float
+    newton: list = field(default_factory=list)
+
+
+# ----------------------------------------------------------------------------------------
+# validation helpers
+
+
+def _check_dt(dt) -> float:
+    try:
+        dt = float(dt)
+    except (TypeError, ValueError):
+        raise TypeError(f"dt must be a number, got {dt!r}") from None
+    if not np.isfinite(dt) or dt <= 0:
+        raise ValueError(f"dt must be a finite number > 0, got {dt}")
+    return dt
+
+
+def _check_method(method, valid) -> str:
+    if method not in valid:
+        raise ValueError(f"unknown method {method!r}; valid methods are: {', '.join(valid)}")
+    return method
+
+
+def _check_finite(name: str, a: np.ndarray) -> None:
+    if not np.all(np.isfinite(a)):
+        bad = np.argwhere(~np.isfinite(a))[0]
+        raise ValueError(f"{name} contains NaN or inf (first at index {tuple(int(i) for i in bad)})")
+
+
+# ----------------------------------------------------------------------------------------
+# Newton–Raphson
+
+
+def _solve(A, b):
+    """Solve ``A z = b`` for dense or sparse ``A``."""
+    if sp.issparse(A):
+        return spla.spsolve(sp.csc_matrix(A), b)
+    return np.linalg.solve(A, b)
+
+
+def newton_solve(
+    G: Callable[[np.ndarray], np.ndarray],
+    J: Callable[[np.ndarray], np.ndarray],
+    z0: np.ndarray,
+    tol: float = 1e-10,
+    max_iter: int = 50,
+    line_search: bool = True,
+    raise_on_failure: bool = True,
+) -> NewtonResult:
+    """Solve the nonlinear system ``G(z) = 0`` by Newton–Raphson with backtracking.
+
+    Each iteration solves ``J(z) dz = -G(z)`` and takes ``z + s dz`` with the largest
+    ``s`` in ``1, 1/2, 1/4, ...`` that decreases the merit ``|G|^2/2`` enough (Armijo
+    condition with constant 1e-4). Near the solution the full step is accepted and the
+    residual falls quadratically.
+
+    Parameters
+    ----------
+    G : callable ``z (m,) -> (m,)``
+    J : callable ``z (m,) -> (m, m)`` dense array or scipy sparse matrix, ``dG/dz``.
+    z0 : (m,) float array, initial guess.
+    tol : stop when ``|G(z)| <= tol * max(1, |G(z0)|)`` (Euclidean norms).
+    max_iter : iteration cap.
+    line_search : backtrack (True) or always take the full step (False).
+    raise_on_failure : raise :class:`ConvergenceError` when not converged (default).
+
+    Returns
+    -------
+    NewtonResult with the residual history (one norm per iterate).
+    """
+    z = np.array(z0, dtype=float)
+    g = np.asarray(G(z), dtype=float)
+    r = float(np.linalg.norm(g))
+    residuals = [r]
+    target = tol * max(1.0, r)
+    it = 0
+    while r > target and it < max_iter:
+        with np.errstate(all="ignore"):
+            dz = _solve(J(z), -g)
+        if not np.all(np.isfinite(dz)):
+            break
+        s = 1.0
+        while True:
+            z_new = z + s * dz
+            with np.errstate(all="ignore"):
+                g_new = np.asarray(G(z_new), dtype=float)
+            r_new = float(np.linalg.norm(g_new))
+            # Armijo on phi = |G|^2/2, whose directional derivative along dz is -|G|^2.
+            if not line_search or (np.isfinite(r_new) and r_new**2 <= (1 - 2e-4 * s) * r**2):
+                break
+            s *= 0.5
+            if s < 1e-10:
+                break
+        z, g, r = z_new, g_new, r_new
+        residuals.append(r)
+        it += 1
+        if not np.isfinite(r):
+            break
+    converged = bool(np.isfinite(r) and r <= target)
+    if not converged and raise_on_failure:
+        raise ConvergenceError(
+            f"Newton–Raphson did not converge in {it} iterations "
+            f"(residual {r:.3e}, target {target:.3e}); try a smaller dt, a larger max_iter "
+            f"or check the Jacobian. Residual history: "
+            + ", ".join(f"{x:.2e}" for x in residuals[-8:]),
+            residuals,
+        )
+    return NewtonResult(z, residuals, it, converged)
+
+
+def finite_difference_jacobian(f: Callable, t: float, y: np.ndarray, eps: float | None = None):
+    """Central-difference Jacobian ``df/dy`` of ``f(t, y)`` at ``y``, shape ``(d, d)``.
+
+    Step per component ``eps * max(1, |y_i|)`` with ``eps = cbrt(machine eps) ≈ 6e-6`` by
+    default (balances truncation and round-off for central differences).
+    """
+    y = np.asarray(y, dtype=float)
+    if eps is None:
+        eps = np.finfo(float).eps ** (1 / 3)
+    d = y.size
+    Jm = np.empty((d, d))
+    for i in range(d):  # d evaluations per column pair; fine for the small systems it is used on
+        h = eps * max(1.0, abs(y[i]))
+        e = np.zeros(d)
+        e[i] = h
+        Jm[:, i] = (np.asarray(f(t, y + e)) - np.asarray(f(t, y - e))) / (2 * h)
+    return Jm
+
+
+# ----------------------------------------------------------------------------------------
+# first-order ODEs
+
+
+def _identity_like(Jf, d):
+    return sp.identity(d, format="csr") if sp.issparse(Jf) else np.eye(d)
+
+
+def integrate(
+    f: Callable[[float, np.ndarray], np.ndarray],
+    y0,
+    t_span: tuple[float, float],
+    dt: float,
+    method: str = "explicit_euler",
+    jac: Callable | None = None,
+    tol: float = 1e-10,
+    max_iter: int = 50,
+    line_search: bool = True,
+    progress: bool = False,
+) -> ODEResult:
+    """Integrate ``y' = f(t, y)`` from ``t_span[0]`` to ``t_span[1]`` with fixed step ``dt``.
+
+    Methods (``h = dt``, ``f_k = f(t_k, y_k)``):
+
+    ``"explicit_euler"``  ``y_{k+1} = y_k + h f_k``                          slides eq. (3)–(4)
+    ``"midpoint"``        ``y_{k+1} = y_k + h f(t_k + h/2, y_k + h/2 f_k)``   2nd order, from eq. (5)
+    ``"heun"``            ``y_{k+1} = y_k + h/2 (f_k + f(t_{k+1}, y_k + h f_k))``
+                          eq. (7) with the unknown ``ẏ_{k+1}`` predicted by an Euler step
+    ``"rk4"``             classical 4th-order Runge–Kutta
+    ``"implicit_euler"``  ``y_{k+1} = y_k + h f(t_{k+1}, y_{k+1})``          slides eq. (12)
+    ``"trapezoidal"``     ``y_{k+1} = y_k + h/2 (f_k + f(t_{k+1}, y_{k+1}))`` eq. (7), implicit
+
+    The implicit methods solve their nonlinear equation ``G(y_{k+1}) = 0`` with
+    :func:`newton_solve`, Jacobian ``I - c h J_f`` (``c = 1`` or ``1/2``) from ``jac`` or
+    by central finite differences, starting from an explicit Euler predictor.
+
+    Parameters
+    ----------
+    f : callable ``(t, y (d,)) -> (d,)``.
+    y0 : (d,) initial state (a scalar is treated as ``d = 1``).
+    t_span : ``(t0, t1)`` with ``t1 > t0``. The last step is shortened to end exactly at
+        ``t1`` when ``(t1 - t0) / dt`` is not an integer.
+    dt : step size > 0.
+    jac : callable ``(t, y) -> (d, d)`` dense or sparse ``df/dy``; finite differences when None.
+    tol, max_iter, line_search : Newton settings (implicit methods only).
+    progress : show a tqdm progress bar.
+
+    Returns
+    -------
+    ODEResult with ``t`` ``(n+1,)`` and ``y`` ``(n+1, d)``; for implicit methods
+    ``newton[k]`` is the residual history of step ``k``.
+
+    Raises
+    ------
+    ValueError for bad input; SimulationDiverged when the state stops being finite (the
+    partial trajectory is attached); ConvergenceError when Newton fails.
+    """
+    _check_method(method, METHODS)
+    dt = _check_dt(dt)
+    y0 = np.atleast_1d(np.asarray(y0, dtype=float))
+    if y0.ndim != 1:
+        raise ValueError(f"y0 must be a 1-D state vector, got shape {y0.shape}; flatten it first")
+    _check_finite("y0", y0)
+    try:
+        t0, t1 = (float(s) for s in t_span)
+    except (TypeError, ValueError):
+        raise ValueError(f"t_span must be a pair (t0, t1), got {t_span!r}") from None
+    if not (np.isfinite(t0) and np.isfinite(t1)) or t1 <= t0:
+        raise ValueError(f"t_span must satisfy t0 < t1 (finite), got ({t0}, {t1})")
+
+    n = int(np.ceil((t1 - t0) / dt - 1e-9))
+    t = t0 + dt * np.arange(n + 1)
+    t[-1] = t1
+    d = y0.size
+    y = np.empty((n + 1, d))
+    y[0] = y0
+    nfev = 0
+
+    def F(tt, yy):
+        nonlocal nfev
+        nfev += 1
+        out = np.asarray(f(tt, yy), dtype=float)
+        if out.shape != (d,):
+            out = out.reshape(-1)
+            if out.shape != (d,):
+                raise ValueError(f"f(t, y) must return shape ({d},) like y0, got {np.shape(out)}")
+        return out
+
+    def Jf(tt, yy):
+        if jac is None:
+            return finite_difference_jacobian(F, tt, yy)
+        Jm = jac(tt, yy)
+        if Jm.shape != (d, d):
+            raise ValueError(f"jac(t, y) must return shape ({d}, {d}), got {Jm.shape}")
+        return Jm
+
+    newton_hist = []
+    steps = range(n)
+    if progress:
+        from tqdm.auto import tqdm
+
+        steps = tqdm(steps, desc=method, leave=False)
+    for k in steps:
+        tk, h, yk = t[k], t[k + 1] - t[k], y[k]
+        with np.errstate(over="ignore", invalid="ignore"):
+            fk = F(tk, yk)
+            if method == "explicit_euler":
+                yn = yk + h * fk  # eq. (3)
+            elif method == "midpoint":
+                yn = yk + h * F(tk + h / 2, yk + h / 2 * fk)
+            elif method == "heun":
+                yn = yk + h / 2 * (fk + F(tk + h, yk + h * fk))  # eq. (7), predictor-corrector
+            elif method == "rk4":
+                k2 = F(tk + h / 2, yk + h / 2 * fk)
+                k3 = F(tk + h / 2, yk + h / 2 * k2)
+                k4 = F(tk + h, yk + h * k3)
+                yn = yk + h / 6 * (fk + 2 * k2 + 2 * k3 + k4)
+            else:
+                c = 1.0 if method == "implicit_euler" else 0.5
+                rhs = yk + (0.0 if method == "implicit_euler" else h / 2 * fk)
+
+                def G(z, tn=tk + h, rhs=rhs, c=c, h=h):
+                    return z - rhs - c * h * F(tn, z)  # eq. (12) / eq. (7) as a root problem
+
+                def JG(z, tn=tk + h, c=c, h=h):
+                    Jz = Jf(tn, z)
+                    return _identity_like(Jz, d) - c * h * Jz
+
+                if np.all(np.isfinite(fk)):
+                    res = newton_solve(G, JG, yk + h * fk, tol=tol, max_iter=max_iter,
+                                       line_search=line_search)
+                    yn = res.z
+                    newton_hist.append(res.residuals)
+                else:
+                    yn = fk  # non-finite: reported below
+        if not np.all(np.isfinite(yn)):
+            partial = ODEResult(t[: k + 1].copy(), y[: k + 1].copy(), method, dt, nfev, newton_hist)
+            raise SimulationDiverged(k + 1, tk, dt, method, partial)
+        y[k + 1] = yn
+    return ODEResult(t, y, method, dt, nfev, newton_hist)
+
+
+# ----------------------------------------------------------------------------------------
+# mechanical systems  M x'' = f(x, v, t)
+
+
+def _fixed_indices(system, n):
+    fixed = np.asarray(getattr(system, "fixed", ()), dtype=int).reshape(-1)
+    if fixed.size and (fixed.min() < 0 or fixed.max() >= n):
+        raise ValueError(f"system.fixed refers to particles outside 0..{n - 1}")
+    return np.unique(fixed)
+
+
+def _implicit_matrix(M_flat, K, D, h, pinned_dofs):
+    """``A = M - h D - h^2 K`` as CSR, with pinned rows/columns replaced by identity."""
+    K = sp.csr_matrix(K)
+    D = sp.csr_matrix(D)
+    if K.shape == D.shape and np.array_equal(K.indptr, D.indptr) and np.array_equal(K.indices, D.indices):
+        A = K.copy()  # same sparsity pattern (SpringSystem guarantees it): combine data arrays
+        A.data = -h * h * K.data - h * D.data
+    else:
+        A = (-h * h) * K - h * D
+        A = sp.csr_matrix(A)
+    A = A + sp.diags(M_flat, format="csr")
+    if pinned_dofs.size:
+        A = A.tocsr()
+        rows = np.repeat(np.arange(A.shape[0]), np.diff(A.indptr))
+        pin = np.zeros(A.shape[0], bool)
+        pin[pinned_dofs] = True
+        hit = pin[rows] | pin[A.indices]
+        A.data[hit] = 0.0
+        A.data[hit & (rows == A.indices)] = 1.0
+    return A
+
+
+class LinearSolver:
+    """Sparse solver for the implicit-Euler systems ``A dv = b``, kept across steps.
+
+    ``kind``:
+
+    * ``"direct"``: a fresh SuperLU factorisation per solve. Robust for any non-singular
+      ``A``; its cost grows quickly with size (fill-in). Above 2,000 unknowns the rows and
+      columns are first reordered by METIS nested dissection (computed once per sparsity
+      pattern), else SuperLU's COLAMD ordering is used.
+    * ``"cg"``: conjugate gradients with a Jacobi preconditioner, warm-started from the
+      previous solution; needs ``A`` symmetric positive definite (true for springs that
+      are not strongly compressed).
+    * ``"lagged"``: conjugate gradients preconditioned by the SuperLU factors of an
+      *earlier* matrix. The matrix ``M - h D - h^2 K`` changes little from one Newton
+      iteration or time step to the next, so the old factors are an excellent
+      preconditioner; the factorisation is refreshed only when CG needs more than
+      ``refactor_after`` iterations (or fails), and then used directly.
+    * ``"auto"``: ``"direct"`` below 4,000 unknowns, ``"lagged"`` above.
+
+    ``rtol`` is the relative residual at which the iterative kinds stop.
+    ``stats`` counts factorisations, solves and CG iterations.
+    """
+
+    KINDS = ("auto", "direct", "cg", "lagged")
+
+    def __init__(self, kind="auto", rtol=1e-8, refactor_after=6):
+        if kind not in self.KINDS:
+            raise ValueError(f"unknown solver {kind!r}; valid solvers are: {', '.join(self.KINDS)}")
+        self.kind, self.rtol, self.refactor_after = kind, rtol, refactor_after
+        self._lu = None
+        self._lu_shape = None
+        self._perm = None
+        self.stats = dict(factorizations=0, solves=0, cg_iterations=0)
+
+    def _ordering(self, A):
+        """Fill-reducing permutation of ``A``'s graph, cached while the pattern is unchanged.
+
+        Nested dissection from METIS (pymetis) when available: on cloth grids it halves the
+        fill of SuperLU's own COLAMD ordering. ``None`` means: let SuperLU use COLAMD.
+        """
+        key = (A.shape, A.nnz)
+        if self._perm is not None and self._perm[0] == key and np.array_equal(self._perm[1], A.indices):
+            return self._perm[2]
+        try:
+            import pymetis
+        except ImportError:  # optional: fall back to COLAMD
+            perm = None
+        else:
+            G = sp.csr_matrix((np.ones(A.nnz), A.indices, A.indptr), shape=A.shape)
+            G = (G + G.T).tocsr()
+            G.setdiag(0)
+            G.eliminate_zeros()
+            perm, _ = pymetis.nested_dissection(  # A'[i, j] = A[perm[i], perm[j]]
+                adjacency=pymetis.CSRAdjacency(G.indptr, G.indices))
+            perm = np.asarray(perm)
+        self._perm = (key, A.indices.copy(), perm)
+        return perm
+
+    def _factor(self, A):
+        """SuperLU factors of ``A`` as a callable ``b -> A^-1 b``."""
+        self.stats["factorizations"] += 1
+        A = sp.csr_matrix(A)
+        perm = self._ordering(A) if A.shape[0] >= 2000 else None
+        if perm is None:
+            lu = spla.splu(sp.csc_matrix(A), permc_spec="COLAMD")
+            self._lu = lu.solve
+        else:
+            lu = spla.splu(sp.csc_matrix(A[perm][:, perm]), permc_spec="NATURAL",
+                           options=dict(SymmetricMode=True))
+
+            def solve(b, lu=lu, perm=perm):
+                z = np.empty_like(b)
+                z[perm] = lu.solve(b[perm])
+                return z
+
+            self._lu = solve
+        self._lu_shape = A.shape
+        return self._lu
+
+    def _cg(self, A, b, x0, precond, maxiter):
+        count = [0]
+
+        def cb(_):
+            count[0] += 1
+
+        z, info = spla.cg(A, b, x0=x0, rtol=self.rtol, atol=0.0, maxiter=maxiter, M=precond,
+                          callback=cb)
+        self.stats["cg_iterations"] += count[0]
+        return z, info, count[0]
+
+    def solve(self, A, b, x0=None):
+        """Solve ``A z = b`` (``A`` sparse ``(N, N)``, ``b`` ``(N,)``); ``x0`` warm-starts CG."""
+        self.stats["solves"] += 1
+        kind = self.kind
+        if kind == "auto":
+            kind = "direct" if A.shape[0] < 4000 else "lagged"
+        if kind == "direct":
+            z = self._factor(A)(b)
+        elif kind == "cg":
+            diag = A.diagonal()
+            if np.any(diag <= 0):
+                raise ConvergenceError("solver='cg' needs a positive diagonal; use 'direct'", [])
+            P = spla.LinearOperator(A.shape, matvec=lambda r: r / diag)
+            z, info, _ = self._cg(A, b, x0, P, 20 * A.shape[0])
+            if info != 0:
+                raise ConvergenceError(f"conjugate gradients did not converge (info={info}); "
+                                       "use solver='direct'", [])
+        elif self._lu is None or self._lu_shape != A.shape:
+            z = self._factor(A)(b)
+        else:  # lagged factorisation as preconditioner
+            P = spla.LinearOperator(A.shape, matvec=self._lu)
+            z, info, its = self._cg(A, b, x0, P, 4 * self.refactor_after)
+            if info != 0:
+                z = self._factor(A)(b)
+            elif its > self.refactor_after:
+                self._factor(A)  # the next solves get a fresh preconditioner
+        return z
+
+
+def simulate(
+    system,
+    x0,
+    v0,
+    dt: float,
+    n_steps: int,
+    method: str = "semi_implicit_euler",
+    t0: float = 0.0,
+    newton: str = "full",
+    tol: float = 1e-8,
+    max_iter: int = 20,
+    solver: str = "auto",
+    progress: bool = False,
+) -> SimulationResult:
+    """Advance ``M x'' = f(x, v, t)`` by ``n_steps`` steps of size ``dt``.
+
+    Methods (``h = dt``, ``f_k = f(x_k, v_k, t_k)``):
+
+    ``"explicit_euler"``       ``x_{k+1} = x_k + h v_k``,  ``v_{k+1} = v_k + h M^-1 f_k``
+                               (slides eq. 4)
+    ``"semi_implicit_euler"``  ``v_{k+1} = v_k + h M^-1 f_k``,  ``x_{k+1} = x_k + h v_{k+1}``
+                               (symplectic Euler; PhysAnimator supp. Eq. 7)
+    ``"implicit_euler"``       ``v_{k+1} = v_k + h M^-1 f(x_{k+1}, v_{k+1}, t_{k+1})``,
+                               ``x_{k+1} = x_k + h v_{k+1}`` (slides eq. 12 for ``y = (x, v)``)
+
+    For implicit Euler the unknown is ``v' = v_{k+1}``; the residual
+    ``G(v') = M (v' - v_k) - h f(x_k + h v', v')`` has the Jacobian
+    ``M - h D - h^2 K`` with ``K = df/dx``, ``D = df/dv`` from ``system.force_jacobians``.
+    ``newton="baraff_witkin"`` takes the single linearised step of [BW] Eq. (6),
+    ``(M - h D - h^2 K) dv = h (f_k + h K v_k)`` with ``K, D`` at ``(x_k, v_k)``;
+    ``newton="full"`` starts from that step and iterates Newton until
+    ``|G| <= tol * max(1, |G_0|)``.
+
+    Parameters
+    ----------
+    system : object with ``mass`` ``(n,)`` (kg), ``force(x, v, t) -> (n, d)`` (N) and, for
+        ``implicit_euler``, ``force_jacobians(x, v, t) -> (K, D)`` sparse ``(n*d, n*d)``
+        (row-major flattening of ``(n, d)``). An optional ``fixed`` sequence of particle
+        indices is pinned: those particles keep ``x0`` and zero velocity.
+    x0, v0 : (n, d) initial positions (m) and velocities (m/s).
+    dt : step (s) > 0.  n_steps : number of steps >= 0.
+    newton : ``"full"`` or ``"baraff_witkin"`` (implicit Euler only).
+    solver : linear solver for ``M - h D - h^2 K``: ``"auto"``, ``"direct"``, ``"cg"``,
+        ``"lagged"`` (see :class:`LinearSolver`), or a :class:`LinearSolver` instance.
+    progress : tqdm progress bar.
+
+    Returns
+    -------
+    SimulationResult with ``t``, ``x``, ``v``; ``newton[k]`` residual norms of step ``k``.
+    """
+    _check_method(method, MECHANICAL_METHODS)
+    dt = _check_dt(dt)
+    if int(n_steps) != n_steps or n_steps < 0:
+        raise ValueError(f"n_steps must be a non-negative integer, got {n_steps!r}")
+    n_steps = int(n_steps)
+    if newton not in ("full", "baraff_witkin"):
+        raise ValueError(f"unknown newton variant {newton!r}; valid: full, baraff_witkin")
+    m = np.asarray(system.mass, dtype=float).reshape(-1)
+    x0 = np.array(x0, dtype=float)
+    v0 = np.array(v0, dtype=float)
+    if x0.ndim != 2 or x0.shape[0] != m.size:
+        raise ValueError(f"x0 must have shape (n, d) with n = {m.size} particles, got {x0.shape}")
+    if v0.shape != x0.shape:
+        raise ValueError(f"v0 must have the same shape as x0 {x0.shape}, got {v0.shape}")
+    _check_finite("x0", x0)
+    _check_finite("v0", v0)
+    n, d = x0.shape
+    fixed = _fixed_indices(system, n)
+    free = np.ones(n, bool)
+    free[fixed] = False
+    if np.any(m[free] <= 0):
+        raise ValueError("masses of free particles must be > 0")
+    v0[fixed] = 0.0
+    inv_m = np.zeros(n)
+    inv_m[free] = 1.0 / m[free]  # pinned particles: infinite mass
+    M_flat = np.repeat(m, d)
+    pinned_dofs = (fixed[:, None] * d + np.arange(d)).reshape(-1)
+
+    if method == "implicit_euler" and not isinstance(solver, LinearSolver):
+        solver = LinearSolver(solver)
+    t = t0 + dt * np.arange(n_steps + 1)
+    X = np.empty((n_steps + 1, n, d))
+    V = np.empty((n_steps + 1, n, d))
+    X[0], V[0] = x0, v0
+    newton_hist = []
+
+    def force(x, v, tt):
+        fo = np.asarray(system.force(x, v, tt), dtype=float)
+        if fo.shape != (n, d):
+            raise ValueError(f"system.force must return shape {(n, d)}, got {fo.shape}")
+        return fo
+
+    steps = range(n_steps)
+    if progress:
+        from tqdm.auto import tqdm
+
+        steps = tqdm(steps, desc=method, leave=False)
+    for k in steps:
+        x, v, tk = X[k], V[k], t[k]
+        with np.errstate(over="ignore", invalid="ignore"):
+            if method == "explicit_euler":
+                a = force(x, v, tk) * inv_m[:, None]
+                xn = x + dt * v  # eq. (4)
+                vn = v + dt * a
+            elif method == "semi_implicit_euler":
+                vn = v + dt * force(x, v, tk) * inv_m[:, None]  # PhysAnimator Eq. (7)
+                xn = x + dt * vn
+            else:
+                vn, hist = _implicit_euler_velocity(
+                    system, force, x, v, tk, dt, M_flat, pinned_dofs, newton, tol, max_iter, solver,
+                    dv_guess=None if k == 0 else (V[k] - V[k - 1]).reshape(-1))
+                newton_hist.append(hist)
+                vn = vn.reshape(n, d)
+                xn = x + dt * vn
+            vn[fixed] = 0.0
+            xn[fixed] = x0[fixed]
+        if not (np.all(np.isfinite(xn)) and np.all(np.isfinite(vn))):
+            partial = SimulationResult(t[: k + 1].copy(), X[: k + 1].copy(), V[: k + 1].copy(),
+                                       method, dt, newton_hist)
+            raise SimulationDiverged(k + 1, tk, dt, method, partial)
+        X[k + 1], V[k + 1] = xn, vn
+    return SimulationResult(t, X, V, method, dt, newton_hist)
+
+
+def _implicit_euler_velocity(system, force, x, v, tk, h, M_flat, pinned_dofs, newton, tol,
+                             max_iter, solver, dv_guess=None):
+    """One implicit Euler step for the velocity; returns ``(v_{k+1} flat, residual history)``.
+
+    ``dv_guess`` (the previous step's velocity change) warm-starts iterative solvers."""
+    n, d = x.shape
+    vk = v.reshape(-1)
+    tn = tk + h
+    # Baraff–Witkin linearised step at (x_k, v_k): (M - hD - h^2 K) dv = h (f_k + h K v_k)
+    K, D = system.force_jacobians(x, v, tk)
+    A = _implicit_matrix(M_flat, K, D, h, pinned_dofs)
+    b = h * (force(x, v, tk).reshape(-1) + h * (K @ vk))
+    b[pinned_dofs] = 0.0
+    dv = solver.solve(A, b, x0=dv_guess)
+    z = vk + dv
+
+    def G(zz):
+        g = M_flat * (zz - vk) - h * force(x + h * zz.reshape(n, d), zz.reshape(n, d), tn).reshape(-1)
+        g[pinned_dofs] = 0.0
+        return g
+
+    g = G(z)
+    hist = [float(np.linalg.norm(G(vk))), float(np.linalg.norm(g))]
+    if newton == "baraff_witkin":
+        return z, hist
+    target = tol * max(1.0, hist[0])
+    it = 0
+    r = hist[-1]
+    while r > target and it < max_iter and np.isfinite(r):
+        K, D = system.force_jacobians(x + h * z.reshape(n, d), z.reshape(n, d), tn)
+        A = _implicit_matrix(M_flat, K, D, h, pinned_dofs)
+        dz = solver.solve(A, -g)
+        s = 1.0
+        while True:  # backtracking on |G|^2 (Armijo)
+            z_new = z + s * dz
+            g_new = G(z_new)
+            r_new = float(np.linalg.norm(g_new))
+            if np.isfinite(r_new) and r_new**2 <= (1 - 2e-4 * s) * r**2:
+                break
+            s *= 0.5
+            if s < 1e-10:
+                break
+        z, g, r = z_new, g_new, r_new
+        hist.append(r)
+        it += 1
+    if np.isfinite(r) and r > target:
+        raise ConvergenceError(
+            f"implicit Euler: Newton did not converge at t = {tk:.6g} in {it} iterations "
+            f"(residual {r:.3e} > {target:.3e}); use a smaller dt or a larger max_iter", hist)
+    return z, hist
+
+
+# ----------------------------------------------------------------------------------------
+# analysis helpers used by the lessons
+
+
+def stability_function(method: str, z):
+    """Amplification factor ``R(z)`` with ``y_{k+1} = R(h λ) y_k`` on the test equation
+    ``y' = λ y`` (complex ``z = h λ``). ``|R(z)| <= 1`` is the method's stability region.
+    """
+    _check_method(method, METHODS)
+    z = np.asarray(z, dtype=complex)
+    if method == "explicit_euler":
+        return 1 + z
+    if method in ("midpoint", "heun"):
+        return 1 + z + z**2 / 2
+    if method == "rk4":
+        return 1 + z + z**2 / 2 + z**3 / 6 + z**4 / 24
+    with np.errstate(divide="ignore", invalid="ignore"):
+        if method == "implicit_euler":
+            return 1 / (1 - z)
+        return (1 + z / 2) / (1 - z / 2)
+
+
+def convergence_order(dts, errors) -> float:
+    """Least-squares slope of ``log(error)`` against ``log(dt)``: the measured order."""
+    dts, errors = np.asarray(dts, float), np.asarray(errors, float)
+    if dts.shape != errors.shape or dts.size < 2:
+        raise ValueError("need at least two (dt, error) pairs of equal length")
+    if np.any(dts <= 0) or np.any(errors <= 0):
+        raise ValueError("dts and errors must be > 0 to take logarithms")
+    return float(np.polyfit(np.log(dts), np.log(errors), 1)[0])
