@@ -345,7 +345,9 @@ def cloth_grid(nx=20, ny=20, width=1.0, height=1.0, k=2000.0, k_shear=None, k_be
     ``dim=2``: a net hanging in the vertical x–y plane, top row at ``y = 0``.
     ``dim=3``: a sheet in the horizontal x–z plane at ``y = 0`` (gravity −y drapes it).
     ``pin``: ``"top_corners"`` (the two corners of the first row in 3D / top row in 2D),
-    ``"top_row"`` or ``"none"``. Shear and bend stiffness default to ``k/2`` and ``k/10``.
+    ``"top_left"``, ``"top_row"``, ``"none"``, or a sequence of particle indices (particle
+    ``r*nx + c`` is column ``c`` of row ``r``). Shear and bend stiffness default to ``k/2``
+    and ``k/10``.
     """
     if nx < 2 or ny < 2:
         raise ValueError("a cloth needs nx, ny >= 2")
@@ -360,9 +362,13 @@ def cloth_grid(nx=20, ny=20, width=1.0, height=1.0, k=2000.0, k_shear=None, k_be
     kk = np.where(kind == "structural", k,
                   np.where(kind == "shear", k / 2 if k_shear is None else k_shear,
                            k / 10 if k_bend is None else k_bend))
-    fixed = {"top_corners": [0, nx - 1], "top_row": list(range(nx)), "none": []}.get(pin)
-    if fixed is None:
-        raise ValueError(f"unknown pin {pin!r}; valid: top_corners, top_row, none")
+    named = {"top_corners": [0, nx - 1], "top_left": [0], "top_row": list(range(nx)), "none": []}
+    if isinstance(pin, str):
+        if pin not in named:
+            raise ValueError(f"unknown pin {pin!r}; valid: {', '.join(named)} or a list of indices")
+        fixed = named[pin]
+    else:
+        fixed = list(pin)
     return SpringSystem(X, edges, k=kk, mass=total_mass / (nx * ny), damping=damping,
                         fixed=fixed, spring_damping=spring_damping)
 

@@ -1,0 +1,108 @@
+"""The ``physlab`` command.
+
+    physlab reproduce [--out reports] [--lessons 01 03]   execute lessons headless, save figures
+    physlab execute lessons/01_*.ipynb                    execute notebooks in place (maintainers)
+    physlab lessons                                        list the lessons
+
+``python -m physlab.cli ...`` works the same without the console script.
+"""
+from __future__ import annotations
+
+import argparse
+import base64
+import sys
+import time
+from pathlib import Path
+
+LESSONS_DIR = Path(__file__).resolve().parent.parent / "lessons"
+
+
+def lesson_paths(selection=None, lessons_dir=LESSONS_DIR):
+    """Lesson notebooks in order; ``selection``: list of number prefixes like ``["01", "3"]``."""
+    paths = sorted(Path(lessons_dir).glob("[0-9][0-9]_*.ipynb"))
+    if not paths:
+        raise FileNotFoundError(f"no lessons found in {lessons_dir}")
+    if selection:
+        wanted = {s.zfill(2) for s in selection}
+        paths = [p for p in paths if p.name[:2] in wanted]
+        if not paths:
+            raise ValueError(f"no lesson matches {selection}; available: "
+                             + ", ".join(p.name[:2] for p in sorted(Path(lessons_dir).glob('*.ipynb'))))
+    return paths
+
+
+def execute_notebook(path, timeout=600, cwd=None):
+    """Execute a notebook with nbclient (a fresh python3 kernel) and return it."""
+    import nbformat
+    from nbclient import NotebookClient
+
+    nb = nbformat.read(path, as_version=4)
+    NotebookClient(nb, timeout=timeout, kernel_name="python3",
+                   resources={"metadata": {"path": str(cwd or Path(path).parent)}}).execute()
+    return nb
+
+
+def save_figures(nb, out_dir):
+    """Write every PNG output of an executed notebook to ``out_dir/cellNN_k.png``."""
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    written = []
+    for ci, cell in enumerate(nb.cells):
+        for k, out in enumerate(cell.get("outputs", [])):
+            png = out.get("data", {}).get("image/png")
+            if png:
+                p = out_dir / f"cell{ci:02d}_{k}.png"
+                tmp = p.with_suffix(".png.part")
+                tmp.write_bytes(base64.b64decode(png))
+                tmp.replace(p)  # atomic
+                written.append(p)
+    return written
+
+
+def reproduce(out="reports", lessons=None, progress=True):
+    """Execute the lessons headless (not in place) and save their figures under ``out/``.
+
+    Returns ``{lesson name: [png paths]}``."""
+    from tqdm.auto import tqdm
+
+    results = {}
+    paths = lesson_paths(lessons)
+    for path in tqdm(paths, desc="lessons", disable=not progress):
+        t0 = time.perf_counter()
+        nb = execute_notebook(path)
+        results[path.stem] = save_figures(nb, Path(out) / path.stem)
+        if progress:
+            tqdm.write(f"{path.name}: {len(results[path.stem])} figures, {time.perf_counter() - t0:.1f} s")
+    return results
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(prog="physlab", description=__doc__.split("\n\n")[0])
+    sub = parser.add_subparsers(dest="cmd", required=True)
+    r = sub.add_parser("reproduce", help="execute lessons headless and save their figures")
+    r.add_argument("--out", default="reports")
+    r.add_argument("--lessons", nargs="*", help="number prefixes, e.g. 01 03 (default: all)")
+    e = sub.add_parser("execute", help="execute notebooks in place (stores outputs)")
+    e.add_argument("paths", nargs="+")
+    e.add_argument("--timeout", type=int, default=600)
+    sub.add_parser("lessons", help="list the lessons")
+    args = parser.parse_args(argv)
+    if args.cmd == "reproduce":
+        res = reproduce(args.out, args.lessons)
+        print(f"wrote {sum(len(v) for v in res.values())} figures to {args.out}/")
+    elif args.cmd == "execute":
+        import nbformat
+
+        for p in args.paths:
+            t0 = time.perf_counter()
+            nb = execute_notebook(p, timeout=args.timeout)
+            nbformat.write(nb, p)
+            print(f"{p}: executed in {time.perf_counter() - t0:.1f} s")
+    else:
+        for p in lesson_paths():
+            print(p.name)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

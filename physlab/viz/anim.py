@@ -1,0 +1,88 @@
+"""Frames -> inline animations for notebooks (HTML5 video or JavaScript) and GIF files."""
+from __future__ import annotations
+
+import numpy as np
+from matplotlib.animation import FuncAnimation
+from matplotlib.collections import LineCollection
+from matplotlib.figure import Figure
+
+__all__ = ["animate_springs", "to_html", "save_gif"]
+
+
+def _ffmpeg_available():
+    import matplotlib
+
+    try:
+        import imageio_ffmpeg
+
+        matplotlib.rcParams["animation.ffmpeg_path"] = imageio_ffmpeg.get_ffmpeg_exe()
+        return True
+    except Exception:  # no bundled ffmpeg: fall back to a JavaScript player
+        return False
+
+
+def to_html(anim, fmt="video"):
+    """HTML for a matplotlib animation: ``"video"`` (H.264 via the ffmpeg shipped with
+    imageio-ffmpeg; small) or ``"jshtml"`` (PNG frames + JavaScript player; no ffmpeg)."""
+    import matplotlib
+
+    if fmt == "video" and _ffmpeg_available():
+        with matplotlib.rc_context({"animation.bitrate": 300}):  # kbit/s: small notebooks
+            return anim.to_html5_video()
+    return anim.to_jshtml()
+
+
+def animate_springs(xs, edges, fixed=(), t=None, fps=30, max_frames=90, limits=None,
+                    size=(4.0, 3.2), ground=None, fmt="video", html=True):
+    """Animate a 2-D spring system trajectory ``xs`` (T, n, 2).
+
+    Frames are subsampled to at most ``max_frames``; playback at ``fps``. Returns an
+    :class:`IPython.display.HTML` object (``html=True``) or the FuncAnimation.
+    """
+    xs = np.asarray(xs)
+    edges = np.asarray(edges)
+    idx = np.unique(np.linspace(0, len(xs) - 1, min(max_frames, len(xs))).round().astype(int))
+    fig = Figure(figsize=size, layout="constrained")
+    ax = fig.subplots()
+    if limits is None:
+        lo, hi = xs[idx].min((0, 1)), xs[idx].max((0, 1))
+        pad = 0.05 * (hi - lo).max() + 1e-9
+        limits = (lo[0] - pad, hi[0] + pad, lo[1] - pad, hi[1] + pad)
+    ax.set_xlim(limits[0], limits[1])
+    ax.set_ylim(limits[2], limits[3])
+    ax.set_aspect("equal")
+    if ground is not None:
+        ax.axhspan(limits[2], ground, color="0.85", zorder=0)
+    lc = LineCollection(xs[0][edges], colors="0.3", linewidths=0.8)
+    ax.add_collection(lc)
+    fixed = np.asarray(fixed, dtype=int)
+    pts = ax.scatter(*xs[0].T, s=5, c="k")
+    if fixed.size:
+        ax.scatter(*xs[0][fixed].T, s=25, marker="s", c="tab:red")
+    title = ax.set_title("")
+
+    def update(k):
+        x = xs[idx[k]]
+        lc.set_segments(x[edges])
+        pts.set_offsets(x)
+        if t is not None:
+            title.set_text(f"t = {t[idx[k]]:.2f} s")
+        return lc, pts, title
+
+    anim = FuncAnimation(fig, update, frames=len(idx), interval=1000 / fps, blit=False)
+    if not html:
+        return anim
+    from IPython.display import HTML
+
+    return HTML(to_html(anim, fmt))
+
+
+def save_gif(frames, path, fps=20):
+    """Write RGB(A) uint8 frames ``(T, H, W, 3|4)`` to an animated GIF with imageio."""
+    import imageio.v3 as iio
+
+    frames = np.asarray(frames)
+    if frames.dtype != np.uint8:
+        frames = (np.clip(frames, 0, 1) * 255).astype(np.uint8)
+    iio.imwrite(path, frames, duration=1000 / fps, loop=0)
+    return path
