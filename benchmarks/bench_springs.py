@@ -82,6 +82,7 @@ How physlab's implicit solver works (``physlab/integrators.py``)
 from __future__ import annotations
 
 import argparse
+import contextlib
 import datetime
 import os
 import platform
@@ -170,7 +171,6 @@ def time_simulate(system, x, v, h, steps, repeats, solver_kind=None, **kwargs):
     if solver is not None:
         stats = dict(solver.stats)
         out.update(solver=resolved_kind(solver_kind, x.size), stats=stats,
-                   solves_per_step=stats["solves"] / steps,
                    ms_per_solve=statistics.fmean(solve_ms) / max(stats["solves"], 1))
     return out
 
@@ -301,6 +301,17 @@ def check_agreement(system, x, v):
 # driver
 
 
+def blas_info():
+    """The BLAS libraries loaded in this process and their thread counts (needs threadpoolctl)."""
+    try:
+        from threadpoolctl import threadpool_info
+    except ImportError:
+        return "unknown (threadpoolctl not installed)"
+    libs = [f"{i['internal_api']} {i.get('version') or ''} ×{i['num_threads']} threads"
+            for i in threadpool_info() if i["user_api"] == "blas"]
+    return "; ".join(libs) or "none found"
+
+
 def machine_info():
     try:
         import pymetis  # noqa: F401  (physlab's nested-dissection ordering needs it)
@@ -310,7 +321,18 @@ def machine_info():
     return dict(date=datetime.datetime.now().astimezone().isoformat(timespec="seconds"),
                 platform=platform.platform(), processor=platform.processor() or platform.machine(),
                 python=platform.python_version(), numpy=np.__version__, scipy=scipy.__version__,
-                cpu_count=os.cpu_count(), pymetis=metis)
+                cpu_count=os.cpu_count(), pymetis=metis, blas=blas_info())
+
+
+def blas_thread_limit(threads):
+    """Context manager that caps BLAS threads (``None``: leave them as they are)."""
+    if threads is None:
+        return contextlib.nullcontext()
+    try:
+        from threadpoolctl import threadpool_limits
+    except ImportError:
+        sys.exit("--blas-threads needs threadpoolctl (pip install threadpoolctl)")
+    return threadpool_limits(limits=threads, user_api="blas")
 
 
 def bench_size(n, steps, repeats, ref_steps, warmup, solver_kinds):
@@ -329,8 +351,9 @@ def bench_size(n, steps, repeats, ref_steps, warmup, solver_kinds):
         for kind in solver_kinds:
             row = time_simulate(system, x, v, DT, steps, repeats, solver_kind=kind,
                                 method="implicit_euler", newton=newton)
-            row.update(newton=newton, kind=kind,
-                       newton_solves=float(np.mean([len(hh) - 1 for hh in row["result"].newton])))
+            # linear solves per step from the residual histories: len(h) - 1 for each step
+            row.update(newton=newton, kind=kind, solves_per_step=float(
+                np.mean([len(hist) - 1 for hist in row["result"].newton])))
             implicit.append(row)
     scene["implicit"] = implicit
     scene["reference"] = bench_reference(system, x, v, ref_steps)
@@ -344,62 +367,61 @@ def bench_size(n, steps, repeats, ref_steps, warmup, solver_kinds):
     return scene
 
 
+LEGEND = """\
+Columns: ms/step = mean wall time per step; median = median of the per-step times of the runs
+(physlab) or of the steps (reference); solves/step = mean of len(h) - 1 over result.newton
+(Baraff–Witkin step + Newton iterations); ms/solve = time inside LinearSolver.solve (or
+spsolve) per solve; fact./solves/CG its = LinearSolver.stats of one run; /ref = ms/step over
+the reference's ms/step."""
+
+
 def print_scene(s):
     print(f"\n== cloth {s['n']}×{s['n']}: {s['particles']:,} particles, {s['springs']:,} springs, "
           f"{s['unknowns']:,} unknowns; dt = 1/60 s ==")
-    print(f"   after {s['warmup']} warm-up steps: sag {1e3 * s['sag']:.2f} mm, "
-          f"max speed {1e3 * s['max_speed']:.2f} mm/s; "
-          f"each physlab row: {s['repeats']} × simulate(…, {s['steps']} steps)")
-    ref = s["reference"]
+    print(f"   after {s['warmup']} warm-up steps: sag {1e3 * s['sag']:.2f} mm, max speed "
+          f"{1e3 * s['max_speed']:.2f} mm/s; physlab rows: {s['repeats']} run(s) of "
+          f"simulate(…, {s['steps']} steps)")
     at_target = s["particles"] == TARGET_PARTICLES
-    head = (f"   {'method':<30} {'solver':<14} {'ms/step':>9} {'median':>9} {'solves':>7} "
-            f"{'ms/solve':>9} {'fact.':>6} {'solves':>7} {'CG its':>7} {'/ref':>7}")
+    columns = [("ms/step", 9), ("median", 9), ("solves", 7), ("ms/solve", 9), ("fact.", 6),
+               ("solves", 7), ("CG its", 7), ("/ref", 7)]
     if at_target:
-        head += f"  {'≤' + format(TARGET_MS, 'g') + ' ms':>8}"
-    print(head)
-    print(f"   {'':<30} {'':<14} {'(mean)':>9} {'':>9} {'/step':>7} {'':>9} "
-          f"{'— LinearSolver.stats per run —':>22}")
+        columns.append((f"≤{TARGET_MS:g} ms", 9))
+    print(f"   {'method':<32} {'solver':<12}" + "".join(f" {c:>{w}}" for c, w in columns))
 
     def line(name, solver, row, stats=None, ratio=None, target=None):
         st = stats or {}
-        cells = [f"{row['mean_ms']:9.2f}", f"{row['median_ms']:9.2f}",
-                 f"{row['solves_per_step']:7.2f}" if "solves_per_step" in row else f"{'—':>7}",
-                 f"{row['ms_per_solve']:9.2f}" if "ms_per_solve" in row else f"{'—':>9}",
-                 f"{st.get('factorizations', '—'):>6}", f"{st.get('solves', '—'):>7}",
-                 f"{st.get('cg_iterations', '—'):>7}",
-                 f"{ratio:6.2f}×" if ratio is not None else f"{'—':>7}"]
-        text = f"   {name:<30} {solver:<14} " + " ".join(cells)
+        cells = [f"{row['mean_ms']:.2f}", f"{row['median_ms']:.2f}",
+                 f"{row['solves_per_step']:.2f}" if "solves_per_step" in row else "—",
+                 f"{row['ms_per_solve']:.2f}" if "ms_per_solve" in row else "—",
+                 st.get("factorizations", "—"), st.get("solves", "—"), st.get("cg_iterations", "—"),
+                 f"{ratio:.3f}" if ratio is not None else "—"]
         if at_target:
-            text += f"  {('—' if target is None else 'yes' if target else 'no'):>8}"
-        print(text)
+            cells.append("—" if target is None else "yes" if target else "no")
+        print(f"   {name:<32} {solver:<12}" + "".join(f" {c:>{w}}" for c, (_, w) in zip(cells, columns)))
 
-    se = s["semi_implicit_euler"]
-    line(f"semi-implicit Euler, h=1/{round(1 / se['h'])}", "—", se)
+    se, ref = s["semi_implicit_euler"], s["reference"]
+    line(f"semi-implicit Euler, h=1/{round(1 / se['h'])} s", "—", se)
     labels = {"baraff_witkin": "implicit Euler, Baraff–Witkin", "full": "implicit Euler, full Newton"}
     for row in s["implicit"]:
         line(labels[row["newton"]], row["solver"], row, row["stats"], row["ratio_to_reference"],
              row["meets_target"])
-    line(f"reference, {REFERENCE_NEWTON_ITERATIONS} Newton its", "spsolve", ref, ratio=1.0,
+    line(f"reference, {REFERENCE_NEWTON_ITERATIONS} Newton iterations", "spsolve", ref, ratio=1.0,
          target=(ref["mean_ms"] <= TARGET_MS) if at_target else None)
 
-    print(f"   semi-implicit Euler at dt = 1/60 s: {se['at_frame_step']}; stable for "
-          f"h < {1e3 * se['h_crit']:.3f} ms, so {se['substeps']} substeps per frame ≈ "
-          f"{se['frame_ms']:.1f} ms per 1/60 s frame")
-    for row in s["implicit"]:
-        if row["newton"] == "full":
-            print(f"   full Newton ({row['solver']}): {row['newton_solves']:.2f} linear solves "
-                  f"per step (Baraff–Witkin step + Newton iterations)")
+    print(f"   semi-implicit Euler at dt = 1/60 s: {se['at_frame_step']}. Stable for "
+          f"h < {1e3 * se['h_crit']:.3f} ms: {se['substeps']} substeps per frame ≈ "
+          f"{se['frame_ms']:.1f} ms per 1/60 s frame.")
     a = s["agreement"]
     print(f"   agreement, one step from the warm state: max|v_physlab - v_reference| = "
-          f"{a['max_abs_dv']:.2e} m/s (max|v| = {a['max_abs_v']:.2e}, relative {a['rel']:.1e})")
+          f"{a['max_abs_dv']:.2e} m/s (max|v| = {a['max_abs_v']:.2e} m/s, relative {a['rel']:.1e})")
     print("   residual |G| per Newton iterate: reference "
           + ", ".join(f"{r:.1e}" for r in a["reference_residuals"])
           + "; physlab " + ", ".join(f"{r:.1e}" for r in a["physlab_residuals"]))
     if at_target:
-        print(f"   issue: target ≤ {TARGET_MS:g} ms per full implicit step; the issue's reference "
-              f"≈ {ISSUE_REFERENCE_MS:g} ms per step (≈ {ISSUE_REFERENCE_SOLVE_MS:g} ms per solve), "
-              f"this run's reference {ref['mean_ms']:.0f} ms per step "
-              f"({ref['ms_per_solve']:.0f} ms per solve)")
+        print(f"   issue: target ≤ {TARGET_MS:g} ms per full implicit step at "
+              f"{TARGET_PARTICLES:,} particles. The issue's reference took ≈ {ISSUE_REFERENCE_MS:g} ms "
+              f"per step (≈ {ISSUE_REFERENCE_SOLVE_MS:g} ms per solve); this run's reference took "
+              f"{ref['mean_ms']:.0f} ms per step ({ref['ms_per_solve']:.0f} ms per solve).")
 
 
 def parse_args(argv=None):
@@ -414,6 +436,8 @@ def parse_args(argv=None):
     p.add_argument("--warmup", type=int, default=10, help="untimed steps before timing (default 10)")
     p.add_argument("--solvers", nargs="+", choices=LinearSolver.KINDS, default=None,
                    help="LinearSolver kinds; default auto (+ direct and lagged for small cloths)")
+    p.add_argument("--blas-threads", type=int, default=None, metavar="T",
+                   help="cap BLAS threads (threadpoolctl) during the run; default: as configured")
     p.add_argument("--quick", action="store_true",
                    help="tiny run (16×16 and 32×32, few steps) that takes a few seconds")
     args = p.parse_args(argv)
@@ -421,7 +445,7 @@ def parse_args(argv=None):
         args.sizes = [16, 32]
         args.steps = args.steps or 4
         args.repeats, args.ref_steps, args.warmup = 1, 1, 3
-    for name in ("steps", "repeats", "ref_steps"):
+    for name in ("steps", "repeats", "ref_steps", "blas_threads"):
         if getattr(args, name) is not None and getattr(args, name) < 1:
             p.error(f"--{name.replace('_', '-')} must be >= 1")
     if min(args.sizes) < 2:
@@ -432,21 +456,25 @@ def parse_args(argv=None):
 def main(argv=None):
     """Run the benchmark, print the tables and return the figures as a dict."""
     args = parse_args(argv)
-    info = machine_info()
-    print("physlab spring benchmark —", info["date"])
-    print(f"   {info['platform']}, {info['processor']}, {info['cpu_count']} CPUs; Python "
-          f"{info['python']}, numpy {info['numpy']}, scipy {info['scipy']}, pymetis {info['pymetis']}")
     t0 = time.perf_counter()
-    scenes = []
-    for n in args.sizes:
-        steps = args.steps or (60 if 2 * n * n < AUTO_DIRECT_BELOW else 20)
-        scene = bench_size(n, steps, args.repeats, args.ref_steps, args.warmup, args.solvers)
-        print_scene(scene)
-        scenes.append(scene)
+    with blas_thread_limit(args.blas_threads):
+        info = machine_info()
+        print("physlab spring benchmark —", info["date"])
+        print(f"   {info['platform']}, {info['processor']}, {info['cpu_count']} CPUs; Python "
+              f"{info['python']}, numpy {info['numpy']}, scipy {info['scipy']}, "
+              f"pymetis {info['pymetis']}")
+        print(f"   BLAS: {info['blas']}")
+        print(LEGEND)
+        scenes = []
+        for n in args.sizes:
+            steps = args.steps or (60 if 2 * n * n < AUTO_DIRECT_BELOW else 20)
+            scene = bench_size(n, steps, args.repeats, args.ref_steps, args.warmup, args.solvers)
+            print_scene(scene)
+            scenes.append(scene)
     total = time.perf_counter() - t0
     print(f"\ntotal benchmark time {total:.1f} s")
     return dict(machine=info, dt=DT, target_ms=TARGET_MS, target_particles=TARGET_PARTICLES,
-                scenes=scenes, seconds=total)
+                blas_threads=args.blas_threads, scenes=scenes, seconds=total)
 
 
 if __name__ == "__main__":

@@ -180,14 +180,15 @@ def stiff_spring_demo(k=4000.0, dt=0.02, t_end=2.0, m=1.0, gamma=0.5):
     fig, ax = plots.new_figure(width=5.0, height=3.2)
     te = np.linspace(0, t_end, 2000)
     ax.plot(te, p.exact(te)[:, 1], "k", lw=0.8, label="exact")
-    notes = []
+    eq = p.equilibrium[1]
+    half = 4 * m * 9.81 / k + 0.05  # plotted band around the equilibrium
     for method in ("explicit_euler", "implicit_euler"):
         r, blew = _run(p, dt, method, t_end)
-        ax.plot(r.t, r.y[:, 1], ".-", ms=3, lw=0.8, color=plots.METHOD_COLORS[method],
-                label=method + (f" (blew up at step {blew})" if blew else ""))
-        notes.append(blew)
-    eq = p.equilibrium[1]
-    ax.set_ylim(eq - 4 * m * 9.81 / k - 0.05, eq + 4 * m * 9.81 / k + 0.05)
+        dev = np.abs(r.y[:, 1] - eq).max()
+        note = f" (blew up at step {blew})" if blew else (f" (reaches {dev:.0e} m)" if dev > half else "")
+        ax.plot(r.t, np.clip(r.y[:, 1], eq - 2 * half, eq + 2 * half), ".-", ms=3, lw=0.8,
+                color=plots.METHOD_COLORS[method], label=method + note)
+    ax.set_ylim(eq - half, eq + half)
     ax.set_xlabel("t (s)")
     ax.set_ylabel("height of the mass (m)")
     ax.legend(fontsize=7)

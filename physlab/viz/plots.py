@@ -87,7 +87,11 @@ def plot_convergence(ax, dts, errors, orders=None):
         ax.loglog(dts, e, "o-", color=METHOD_COLORS.get(m), label=f"{m}: slope {slopes[m]:.2f}")
         if orders and m in orders:
             ax.loglog(dts, e[-1] * (dts / dts[-1]) ** orders[m], ":", color=METHOD_COLORS.get(m), lw=1)
-    ax.set_xlabel("time step dt")
+    from matplotlib.ticker import NullFormatter
+
+    ax.xaxis.set_minor_formatter(NullFormatter())
+    ax.set_xticks(dts, [f"{d:g}" for d in dts])
+    ax.set_xlabel("time step dt (s)")
     ax.set_ylabel("global error at t_end")
     ax.legend(fontsize=7)
     ax.grid(True, which="both", alpha=0.3)
