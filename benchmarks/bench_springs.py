@@ -178,7 +178,7 @@ def time_simulate(system, x, v, h, steps, repeats, solver_kind=None, **kwargs):
 def explicit_stable_step(system, x):
     """Largest stable step (s) of semi-implicit Euler at ``x``, for uniform mass ``m`` and
     damping ``-γ v``: a mode ``ẍ = -ω² x - c ẋ`` (``c = γ/m``) is stable for
-    ``h² ω² + 2 h c < 4``. ``ω²_max`` is the largest eigenvalue of ``-K/m`` on the free dofs."""
+    ``h² ω² + 2 h c < 4``, with ``ω²_max`` the largest eigenvalue of ``-K/m`` (free dofs)."""
     d = system.d
     m = float(np.max(system.mass))
     K, _ = system.force_jacobians(x, np.zeros_like(x))
@@ -359,9 +359,10 @@ def bench_size(n, steps, repeats, ref_steps, warmup, solver_kinds):
     scene["reference"] = bench_reference(system, x, v, ref_steps)
     scene["agreement"] = check_agreement(system, x, v)
     ref_ms = scene["reference"]["mean_ms"]
+    at_target = system.n == TARGET_PARTICLES
     for row in implicit:
         row["ratio_to_reference"] = row["mean_ms"] / ref_ms
-        row["meets_target"] = (row["mean_ms"] <= TARGET_MS) if system.n == TARGET_PARTICLES else None
+        row["meets_target"] = bool(row["mean_ms"] <= TARGET_MS) if at_target else None
     for row in [scene["semi_implicit_euler"], scene["reference"], *implicit]:
         row.pop("result", None)  # trajectories are not results of the benchmark
     return scene
@@ -393,15 +394,18 @@ def print_scene(s):
         cells = [f"{row['mean_ms']:.2f}", f"{row['median_ms']:.2f}",
                  f"{row['solves_per_step']:.2f}" if "solves_per_step" in row else "—",
                  f"{row['ms_per_solve']:.2f}" if "ms_per_solve" in row else "—",
-                 st.get("factorizations", "—"), st.get("solves", "—"), st.get("cg_iterations", "—"),
+                 st.get("factorizations", "—"), st.get("solves", "—"),
+                 st.get("cg_iterations", "—"),
                  f"{ratio:.3f}" if ratio is not None else "—"]
         if at_target:
             cells.append("—" if target is None else "yes" if target else "no")
-        print(f"   {name:<32} {solver:<12}" + "".join(f" {c:>{w}}" for c, (_, w) in zip(cells, columns)))
+        widths = [w for _, w in columns]
+        print(f"   {name:<32} {solver:<12}" + "".join(f" {c:>{w}}" for c, w in zip(cells, widths)))
 
     se, ref = s["semi_implicit_euler"], s["reference"]
     line(f"semi-implicit Euler, h=1/{round(1 / se['h'])} s", "—", se)
-    labels = {"baraff_witkin": "implicit Euler, Baraff–Witkin", "full": "implicit Euler, full Newton"}
+    labels = {"baraff_witkin": "implicit Euler, Baraff–Witkin",
+              "full": "implicit Euler, full Newton"}
     for row in s["implicit"]:
         line(labels[row["newton"]], row["solver"], row, row["stats"], row["ratio_to_reference"],
              row["meets_target"])
@@ -419,9 +423,10 @@ def print_scene(s):
           + "; physlab " + ", ".join(f"{r:.1e}" for r in a["physlab_residuals"]))
     if at_target:
         print(f"   issue: target ≤ {TARGET_MS:g} ms per full implicit step at "
-              f"{TARGET_PARTICLES:,} particles. The issue's reference took ≈ {ISSUE_REFERENCE_MS:g} ms "
-              f"per step (≈ {ISSUE_REFERENCE_SOLVE_MS:g} ms per solve); this run's reference took "
-              f"{ref['mean_ms']:.0f} ms per step ({ref['ms_per_solve']:.0f} ms per solve).")
+              f"{TARGET_PARTICLES:,} particles. The issue's reference took "
+              f"≈ {ISSUE_REFERENCE_MS:g} ms per step (≈ {ISSUE_REFERENCE_SOLVE_MS:g} ms per "
+              f"solve); this run's reference took {ref['mean_ms']:.0f} ms per step "
+              f"({ref['ms_per_solve']:.0f} ms per solve).")
 
 
 def parse_args(argv=None):
@@ -433,7 +438,8 @@ def parse_args(argv=None):
                    help="time steps per simulate call; default 60 below 4,000 unknowns, else 20")
     p.add_argument("--repeats", type=int, default=3, help="simulate calls per row (default 3)")
     p.add_argument("--ref-steps", type=int, default=3, help="timed reference steps (default 3)")
-    p.add_argument("--warmup", type=int, default=10, help="untimed steps before timing (default 10)")
+    p.add_argument("--warmup", type=int, default=10,
+                   help="untimed steps before timing (default 10)")
     p.add_argument("--solvers", nargs="+", choices=LinearSolver.KINDS, default=None,
                    help="LinearSolver kinds; default auto (+ direct and lagged for small cloths)")
     p.add_argument("--blas-threads", type=int, default=None, metavar="T",

@@ -131,7 +131,9 @@ def ode_demo(dt=0.02, method="explicit_euler", t_end=10.0, k=40.0, m=1.0, gamma=
     a.set_ylabel("height of the mass (m)")
     a.legend(fontsize=7, loc="lower right")
     E0 = p.energy(p.y0)
-    b.plot(r.t, p.energy(r.y) - E0, color=plots.METHOD_COLORS[method])
+    with np.errstate(over="ignore", invalid="ignore"):
+        dE = p.energy(r.y) - E0
+    b.plot(r.t, dE, color=plots.METHOD_COLORS[method])
     b.plot(te, p.energy(ex) - E0, "k", lw=1)
     b.set_xlabel("t (s)")
     b.set_ylabel("E(t) - E(0) (J)")

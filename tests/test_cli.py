@@ -1,0 +1,25 @@
+"""physlab.cli: listing lessons and the headless `reproduce` command."""
+import pytest
+
+from physlab import cli
+
+
+def test_lesson_paths_selection():
+    all_paths = cli.lesson_paths()
+    assert [p.name[:2] for p in all_paths] == sorted(p.name[:2] for p in all_paths)
+    assert [p.name[:2] for p in cli.lesson_paths(["1"])] == ["01"]
+    with pytest.raises(ValueError, match="available"):
+        cli.lesson_paths(["99"])
+
+
+@pytest.mark.slow
+def test_reproduce_writes_the_lesson_figures(tmp_path):
+    cli.main(["reproduce", "--lessons", "01", "--out", str(tmp_path)])
+    pngs = sorted((tmp_path / "01_odes_and_explicit_euler").glob("*.png"))
+    assert len(pngs) >= 2
+    from PIL import Image
+
+    for p in pngs:
+        im = Image.open(p)
+        assert im.width > 200 and im.height > 150
+        assert len(set(im.convert("L").getdata())) > 20  # not a blank canvas

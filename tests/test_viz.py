@@ -1,0 +1,49 @@
+"""physlab.viz: animations, GIFs and widget wiring."""
+import numpy as np
+import pytest
+
+from physlab import springs
+from physlab.integrators import simulate
+from physlab.viz import anim, plots, widgets
+
+
+def test_animate_springs_html5_video():
+    s = springs.chain(5)
+    r = simulate(s, *s.rest_state(), 0.01, 30)
+    html = anim.animate_springs(r.x, s.edges, fixed=s.fixed, t=r.t, max_frames=10)
+    assert "<video" in html.data and "base64" in html.data
+    js = anim.animate_springs(r.x, s.edges, max_frames=5, fmt="jshtml")
+    assert "<script" in js.data
+
+
+def test_save_gif_roundtrip(tmp_path):
+    import imageio.v3 as iio
+
+    frames = np.zeros((4, 16, 20, 3), np.uint8)
+    frames[:, :, :, 0] = np.arange(4)[:, None, None] * 60
+    path = anim.save_gif(frames, tmp_path / "a.gif", fps=10)
+    back = iio.imread(path, index=None)
+    assert back.shape[0] == 4 and back.shape[1:3] == (16, 20)
+    assert back[3, 0, 0, 0] == 180
+
+
+def test_draw_springs_strain_colours():
+    fig, ax = plots.new_figure()
+    s = springs.chain(4)
+    x = s.X * np.array([1.1, 1.0])
+    lc = plots.draw_springs(ax, x, s.edges, rest_length=s.rest_length)
+    np.testing.assert_allclose(lc.get_array(), 0.1, atol=1e-12)
+
+
+def test_interact_fixes_unlisted_defaults_and_calls_back():
+    pytest.importorskip("ipywidgets")
+    calls = []
+
+    def cb(a=1.0, b="x", c=None):
+        calls.append((a, b, c))
+        return None
+
+    box = widgets.interact(cb, a=widgets.float_slider(1.0, 0.0, 2.0, 0.1, "a"), b="fixed")
+    box.children[0].value = 1.5  # as a student moving the slider
+    assert calls[-1] == (1.5, "fixed", None)
+    assert box.children[0].continuous_update is False
