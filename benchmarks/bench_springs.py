@@ -9,6 +9,11 @@ Run it with ``make bench`` (all benchmarks) or on its own::
 It prints tables and never asserts on time: wall-clock figures depend on the machine and
 on whatever else runs on it. :func:`main` also returns every figure as a dict.
 
+numpy and scipy wheels each bundle their own OpenBLAS with its own thread pool. On a machine
+with few cores the two pools can compete while a CG iteration alternates SuperLU solves (scipy)
+with dot products (numpy), and the "lagged" timings then vary by 2× from one run to the next.
+``--blas-threads 1`` (threadpoolctl) gives steadier figures. The header prints the pools.
+
 What is measured
 ----------------
 Scenes: ``physlab.springs.cloth_grid(n, n, k=2000.0, dim=2, damping=0.05)``, a vertical
@@ -20,8 +25,8 @@ few untimed warm-up steps (implicit Euler) so that the cloth is moving and saggi
 From that warm state, per scene:
 
 1. ``simulate(..., method="semi_implicit_euler")``. This explicit method is unstable at
-   ``dt = 1/60 s`` for this stiffness: the state overflows within a few dozen steps. It is
-   therefore timed at its stable step ``h < (-c + sqrt(c² + 4 ω²)) / ω²`` (``c = γ/m``,
+   ``dt = 1/60 s`` for this stiffness: the velocities grow by orders of magnitude per step.
+   It is therefore timed at its stable step ``h < (-c + sqrt(c² + 4 ω²)) / ω²`` (``c = γ/m``,
    ``ω²`` the largest eigenvalue of ``-M⁻¹K``, from the symplectic Euler amplification matrix
    of one damped mode), with a 10% margin. The arithmetic per step does not depend on the
    step size. The table reports the cost per step and per 1/60 s frame (many substeps).

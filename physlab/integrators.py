@@ -387,8 +387,12 @@ def integrate(
                     return _identity_like(Jz, d) - c * h * Jz
 
                 if np.all(np.isfinite(fk)):
-                    res = newton_solve(G, JG, yk + h * fk, tol=tol, max_iter=max_iter,
-                                       line_search=line_search)
+                    try:
+                        res = newton_solve(G, JG, yk + h * fk, tol=tol, max_iter=max_iter,
+                                           line_search=line_search)
+                    except ConvergenceError as err:
+                        raise ConvergenceError(f"{method} step {k + 1} (t = {tk:.6g}): {err}",
+                                               err.residuals) from None
                     yn = res.z
                     newton_hist.append(res.residuals)
                 else:

@@ -123,6 +123,13 @@ def test_newton_without_line_search_and_failure_reports_history():
     assert len(info.value.residuals) >= 2 and info.value.residuals[-1] > info.value.residuals[0]
 
 
+def test_newton_failure_inside_integrate_names_the_step():
+    f = lambda t, y: np.array([-y[0] ** 3 + np.exp(y[0])])
+    with pytest.raises(ConvergenceError, match=r"implicit_euler step 1 \(t = 0\)") as info:
+        integrate(f, [3.0], (0.0, 1.0), 0.5, "implicit_euler", max_iter=1)
+    assert len(info.value.residuals) == 2
+
+
 def test_bad_inputs_raise_clear_errors():
     with pytest.raises(ValueError, match="dt must be"):
         integrate(oscillator, [1, 0], (0, 1), 0.0)

@@ -1,0 +1,353 @@
+"""A lesson's ipywidgets really respond in JupyterLab, driven the way a student does it.
+
+Copies ``lessons/`` to a temporary directory, starts JupyterLab there (fresh Jupyter config and
+runtime dirs, announcements popup disabled, notebook windowing off), opens lesson 01 in headless
+Debian Chromium through Playwright, runs all cells from the Run menu, then moves the ``dt`` slider
+and picks another integrator in the ``method`` dropdown, checking that the figure in the
+interactive widget's output is redrawn each time and that no error shows up in the notebook.
+
+Screenshots of the widget (and the decoded PNGs it displayed) go to pytest's ``tmp_path``; their
+paths are printed (``-s``) and quoted in failure messages.
+
+Needs ``/usr/bin/chromium`` (``make browser``; override with ``PHYSLAB_E2E_CHROMIUM``) and the
+``playwright`` Python package; never ``playwright install``. Skipped when either is missing.
+"""
+from __future__ import annotations
+
+import base64
+import json
+import os
+import re
+import shutil
+import signal
+import struct
+import subprocess
+import sys
+import time
+import urllib.request
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[2]
+LESSONS = REPO / "lessons"
+LESSON = "01_odes_and_explicit_euler.ipynb"
+CHROMIUM = os.environ.get("PHYSLAB_E2E_CHROMIUM", "/usr/bin/chromium")
+CHROMIUM_ARGS = ["--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage", "--disable-quic",
+                 "--no-first-run", "--disable-background-networking", "--disable-component-update",
+                 "--disable-sync"]
+
+# Timeouts (seconds). A whole run takes ~15-25 s on these machines.
+SERVER_START_TIMEOUT = 60
+PAGE_TIMEOUT = 60
+RUN_ALL_TIMEOUT = 120
+UPDATE_TIMEOUT = 30
+SETTLE_SECONDS = 1.0  # the widget's image must stay unchanged this long (with the kernel idle)
+
+# What a student would see as an error in an output area (tracebacks are rendered as stderr).
+STDERR_SEL = '.jp-OutputArea-output[data-mime-type="application/vnd.jupyter.stderr"]'
+WIDGET_ERROR_TEXT = "Error displaying widget"
+KERNEL_IDLE = re.compile(r"\| Idle\s*$")
+
+pytestmark = [pytest.mark.e2e]
+
+
+# --------------------------------------------------------------------------- JupyterLab server
+class LabServer:
+    """``jupyter lab`` on 127.0.0.1 serving ``root``, with private config/runtime dirs under
+    ``home``. Only the process this object started (and its process group) is ever signalled."""
+
+    def __init__(self, root: Path, home: Path):
+        self.root, self.home = root, home
+        self.token = os.urandom(16).hex()
+        self.log_path = home / "jupyterlab.log"
+        self.proc: subprocess.Popen | None = None
+        self.url = ""
+
+    def _write_config(self):
+        cfg, rt = self.home / "jupyter_config", self.home / "jupyter_runtime"
+        (cfg / "labconfig").mkdir(parents=True)
+        rt.mkdir(parents=True)
+        # The "Jupyter news?" popup can cover the menu bar: disable the announcements plugin.
+        (cfg / "labconfig" / "page_config.json").write_text(json.dumps(
+            {"disabledExtensions": {"@jupyterlab/apputils-extension:announcements": True}}))
+        # Keep every cell in the DOM (the default windowing drops off-screen cells).
+        settings = cfg / "lab" / "user-settings" / "@jupyterlab" / "notebook-extension"
+        settings.mkdir(parents=True)
+        (settings / "tracker.jupyterlab-settings").write_text(json.dumps({"windowingMode": "none"}))
+        # JUPYTER_DATA_DIR stays as is: the ipywidgets labextension and the python3 kernelspec
+        # come from sys.prefix/share/jupyter, which is searched regardless.
+        return dict(os.environ, JUPYTER_CONFIG_DIR=str(cfg), JUPYTER_RUNTIME_DIR=str(rt),
+                    IPYTHONDIR=str(self.home / "ipython"), PYTHONUNBUFFERED="1")
+
+    def start(self):
+        env = self._write_config()
+        cmd = [sys.executable, "-m", "jupyterlab", "--no-browser", "--ip=127.0.0.1", "--port=0",
+               f"--IdentityProvider.token={self.token}", f"--ServerApp.root_dir={self.root}",
+               "--LabApp.news_url=None",
+               "--LabApp.check_for_updates_class=jupyterlab.NeverCheckForUpdate"]
+        if hasattr(os, "geteuid") and os.geteuid() == 0:
+            cmd.append("--allow-root")
+        with open(self.log_path, "wb") as log:
+            self.proc = subprocess.Popen(cmd, env=env, cwd=self.root, stdout=log,
+                                         stderr=subprocess.STDOUT, start_new_session=True)
+        info = Path(env["JUPYTER_RUNTIME_DIR"]) / f"jpserver-{self.proc.pid}.json"
+        deadline = time.monotonic() + SERVER_START_TIMEOUT
+        while time.monotonic() < deadline:
+            if self.proc.poll() is not None:
+                raise RuntimeError(f"JupyterLab exited with code {self.proc.returncode}\n"
+                                   + self.log_tail())
+            if info.exists():
+                try:
+                    self.url = json.loads(info.read_text())["url"].rstrip("/")
+                    self._request("GET", "/api/status", timeout=2)
+                    return self
+                except (ValueError, KeyError, OSError):
+                    pass  # file half-written or server not answering yet
+            time.sleep(0.2)
+        raise RuntimeError(f"JupyterLab did not come up within {SERVER_START_TIMEOUT} s\n"
+                           + self.log_tail())
+
+    def _request(self, method, path, timeout=5):
+        req = urllib.request.Request(self.url + path, method=method, data=b"" if method == "POST" else None,
+                                     headers={"Authorization": f"token {self.token}"})
+        with urllib.request.urlopen(req, timeout=timeout) as resp:
+            return resp.read()
+
+    def stop(self):
+        proc = self.proc
+        if proc is None or proc.poll() is not None:
+            return
+        try:  # clean shutdown: the server also shuts its kernels down
+            self._request("POST", "/api/shutdown", timeout=5)
+            proc.wait(timeout=15)
+        except Exception:
+            pass
+        for sig, wait in ((signal.SIGTERM, 10), (signal.SIGKILL, 5)):
+            if proc.poll() is not None:  # not yet reaped otherwise, so its pid is still ours
+                break
+            try:
+                os.killpg(proc.pid, sig)  # the group start_new_session gave the server
+            except ProcessLookupError:
+                break
+            try:
+                proc.wait(timeout=wait)
+            except subprocess.TimeoutExpired:
+                pass
+
+    def log_tail(self, n=40):
+        try:
+            lines = self.log_path.read_text(errors="replace").splitlines()[-n:]
+        except OSError:
+            return f"(no server log at {self.log_path})"
+        return f"JupyterLab log {self.log_path} (last {len(lines)} lines):\n" + "\n".join(lines)
+
+
+# --------------------------------------------------------------------------- page helpers
+def _wait_until(page, check, timeout, what, poll_ms=200):
+    """Poll ``check()`` (truthy result = done) until ``timeout`` seconds; fail saying ``what``.
+    ``check`` may raise AssertionError to fail early (e.g. when an error output shows up)."""
+    deadline = time.monotonic() + timeout
+    while True:
+        result = check()
+        if result:
+            return result
+        if time.monotonic() > deadline:
+            raise AssertionError(f"timed out after {timeout} s waiting for {what}")
+        page.wait_for_timeout(poll_ms)
+
+
+def _kernel_status(page):
+    texts = page.locator(".jp-StatusBar-Widget").all_inner_texts()
+    for line in "\n".join(texts).splitlines():
+        if "|" in line and "(" in line:  # "Python 3 (ipykernel) | Idle"
+            return line.strip()
+    return ""
+
+
+def _kernel_idle(page):
+    return bool(KERNEL_IDLE.search(_kernel_status(page)))
+
+
+def _error_outputs(page):
+    """Texts of error-looking outputs anywhere in the notebook (incl. inside widget outputs)."""
+    errors = [t for t in page.locator(STDERR_SEL).all_inner_texts() if t.strip()]
+    errors += [t for t in page.locator(".jp-OutputArea-output").all_inner_texts()
+               if WIDGET_ERROR_TEXT in t]
+    return errors
+
+
+def _assert_no_errors(page, where):
+    errors = _error_outputs(page)
+    assert not errors, f"error output in the notebook {where}:\n" + "\n-----\n".join(
+        e[-3000:] for e in errors)
+
+
+def _img_src(box):
+    imgs = box.locator(".widget-output img")
+    return imgs.first.get_attribute("src") if imgs.count() else None
+
+
+def _png_size(src):
+    assert src and src.startswith("data:image/png;base64,"), f"not a PNG data URL: {str(src)[:80]}"
+    data = base64.b64decode(src.split(",", 1)[1])
+    assert data[:8] == b"\x89PNG\r\n\x1a\n", "widget image is not a PNG"
+    return data, struct.unpack(">II", data[16:24])  # IHDR width, height
+
+
+def _wait_new_image(page, box, old_src, what):
+    """Wait until the widget shows an image other than ``old_src`` and has settled: the kernel is
+    idle and the image stayed the same for SETTLE_SECONDS (each key press makes its own update)."""
+    _wait_until(page, lambda: _check_errors_then(page, lambda: _img_src(box) not in (None, old_src)),
+                UPDATE_TIMEOUT, f"the widget figure to change after {what}")
+    state = {"src": None, "since": 0.0}
+
+    def settled():
+        src, now = _img_src(box), time.monotonic()
+        if src != state["src"] or src is None or not _kernel_idle(page):
+            state.update(src=src, since=now)
+            return False
+        return now - state["since"] >= SETTLE_SECONDS
+
+    _wait_until(page, lambda: _check_errors_then(page, settled), UPDATE_TIMEOUT,
+                f"the widget figure to settle after {what}")
+    return state["src"]
+
+
+def _check_errors_then(page, check):
+    _assert_no_errors(page, "while waiting")
+    return check()
+
+
+def _snapshot(box, out_dir: Path, name, src):
+    """Screenshot the widget box and write the PNG it displays; returns the screenshot path."""
+    box.scroll_into_view_if_needed()
+    shot = out_dir / f"{name}.png"
+    box.screenshot(path=str(shot))
+    data, _ = _png_size(src)
+    (out_dir / f"{name}_figure.png").write_bytes(data)
+    print(f"[e2e] screenshot {shot}  (figure {out_dir / f'{name}_figure.png'})")
+    return shot
+
+
+def _check_single_figure(cell, box, shot):
+    """Exactly one figure: inside the widget's output, none elsewhere in the cell's output."""
+    n_widget = box.locator(".widget-output img").count()
+    n_cell = cell.locator(".jp-Cell-outputArea img").count()
+    assert n_widget == 1 and n_cell == 1, (
+        f"expected exactly one figure in the interactive widget's output, found {n_widget} in the "
+        f"widget and {n_cell} in the whole cell output; see {shot}")
+
+
+# --------------------------------------------------------------------------- the test
+@pytest.fixture
+def lab(tmp_path):
+    if not Path(CHROMIUM).exists():
+        pytest.skip(f"{CHROMIUM} not found: install Debian chromium (`make browser`, or "
+                    "`apt-get install chromium`) to run the browser tests")
+    pytest.importorskip("playwright.sync_api", reason="the playwright Python package is not installed")
+    root = tmp_path / "lessons"
+    # Work on a copy: running and autosaving in the browser must not touch the committed lessons.
+    shutil.copytree(LESSONS, root, ignore=shutil.ignore_patterns(".ipynb_checkpoints"))
+    server = LabServer(root, tmp_path / "jupyter")
+    server.home.mkdir()
+    try:
+        yield server.start()
+    finally:
+        server.stop()
+    assert server.proc.poll() is not None, f"JupyterLab (pid {server.proc.pid}) is still running"
+
+
+@pytest.mark.e2e
+@pytest.mark.timeout(300)
+def test_lesson01_interact_widget_redraws_figure(lab, tmp_path):
+    from playwright.sync_api import sync_playwright
+
+    shots_dir = tmp_path / "screenshots"
+    shots_dir.mkdir()
+    browser_errors: list[str] = []
+    t0 = time.monotonic()
+    with sync_playwright() as pw:
+        browser = pw.chromium.launch(executable_path=CHROMIUM, headless=True, args=CHROMIUM_ARGS)
+        try:
+            page = browser.new_page(viewport={"width": 1280, "height": 900})
+            page.set_default_timeout(PAGE_TIMEOUT * 1000)
+            page.on("pageerror", lambda e: browser_errors.append(f"pageerror: {e}"))
+            page.on("console", lambda m: browser_errors.append(f"console.{m.type}: {m.text}")
+                    if m.type == "error" else None)
+            try:
+                _drive_lesson(page, lab, shots_dir)
+            except Exception as exc:
+                failure_shot = shots_dir / "failure_page.png"
+                try:
+                    page.screenshot(path=str(failure_shot))
+                except Exception as shot_exc:
+                    failure_shot = f"(page screenshot failed: {shot_exc})"
+                js = "\n".join(browser_errors[-20:]) or "(none)"
+                pytest.fail(f"{type(exc).__name__}: {exc}\n\nwhole page: {failure_shot}\n"
+                            f"widget screenshots: {shots_dir}\nbrowser errors:\n{js}\n\n"
+                            f"{lab.log_tail()}", pytrace=True)
+        finally:
+            browser.close()
+    print(f"[e2e] browser part took {time.monotonic() - t0:.1f} s; JS errors: {browser_errors or 'none'}")
+
+
+def _drive_lesson(page, lab, shots_dir):
+    t0 = time.monotonic()
+    page.goto(f"{lab.url}/lab/tree/{LESSON}?token={lab.token}", wait_until="domcontentloaded")
+    page.locator(".jp-Notebook .jp-Cell").first.wait_for(timeout=PAGE_TIMEOUT * 1000)
+    # The toolbar can say idle while the kernel is still starting: wait for the status bar.
+    _wait_until(page, lambda: _kernel_idle(page), PAGE_TIMEOUT,
+                f"the status bar to show the kernel idle (it shows {_kernel_status(page)!r})")
+    print(f"[e2e] notebook open, kernel idle after {time.monotonic() - t0:.1f} s")
+
+    # Should JupyterLab ever redraw the saved widget state, don't mistake it for the live widget.
+    page.evaluate("document.querySelectorAll('.widget-interact')"
+                  ".forEach(e => e.setAttribute('data-e2e-stale', '1'))")
+    page.locator(".lm-MenuBar-item", has_text=re.compile(r"^\s*Run\s*$")).click()
+    page.locator(".lm-Menu-item", has_text=re.compile(r"^\s*Run All Cells")).first.click()
+
+    box = page.locator(".widget-interact:not([data-e2e-stale])")
+    _wait_until(page, lambda: _check_errors_then(page, lambda: box.count() == 1 and _img_src(box)),
+                RUN_ALL_TIMEOUT, "the interactive widget (.widget-interact) and its figure to render "
+                "after Run All Cells")
+    src0 = _wait_new_image(page, box, None, "Run All Cells")
+    cell = page.locator(".jp-CodeCell", has=box)
+    print(f"[e2e] all cells ran, widget drawn after {time.monotonic() - t0:.1f} s")
+
+    shot0 = _snapshot(box, shots_dir, "1_initial", src0)
+    _check_single_figure(cell, box, shot0)
+    _, (w, h) = _png_size(src0)
+    assert w >= 200 and h >= 150, f"widget figure is only {w}x{h} px; see {shot0}"
+    assert box.locator(".widget-output img").evaluate("img => img.naturalWidth") > 0, (
+        f"the widget figure did not load in the browser; see {shot0}")
+
+    # 1) The dt slider: focus its handle and nudge it with the keyboard (continuous_update=False,
+    #    so each key press is one committed change).
+    dt_slider = box.locator(".widget-slider").filter(has_text="dt (s)")
+    assert dt_slider.count() == 1, f"no slider labelled 'dt (s)' in the widget; see {shot0}"
+    readout = dt_slider.locator(".widget-readout")
+    dt_before = float(readout.inner_text())
+    handle = dt_slider.locator(".noUi-handle")
+    handle.focus()
+    for _ in range(3):
+        handle.press("ArrowRight")
+    src1 = _wait_new_image(page, box, src0, "moving the dt slider")
+    dt_after = float(readout.inner_text())
+    shot1 = _snapshot(box, shots_dir, "2_dt_moved", src1)
+    assert dt_after > dt_before, f"dt readout went {dt_before} -> {dt_after}; see {shot1}"
+    assert src1 != src0, f"figure unchanged after moving dt; see {shot0} and {shot1}"
+    _check_single_figure(cell, box, shot1)
+    print(f"[e2e] dt {dt_before} -> {dt_after}: figure redrawn after {time.monotonic() - t0:.1f} s")
+
+    # 2) The method dropdown.
+    method = box.locator(".widget-dropdown").filter(has_text="method").locator("select")
+    assert method.count() == 1, f"no dropdown labelled 'method' in the widget; see {shot1}"
+    method.select_option("rk4")
+    src2 = _wait_new_image(page, box, src1, "selecting method rk4")
+    shot2 = _snapshot(box, shots_dir, "3_rk4", src2)
+    assert src2 not in (src0, src1), f"figure unchanged after selecting rk4; see {shot1} and {shot2}"
+    _check_single_figure(cell, box, shot2)
+    print(f"[e2e] method rk4: figure redrawn after {time.monotonic() - t0:.1f} s")
+
+    _assert_no_errors(page, f"at the end (widget screenshots: {shot0}, {shot1}, {shot2})")
