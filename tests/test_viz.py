@@ -47,3 +47,22 @@ def test_interact_fixes_unlisted_defaults_and_calls_back():
     box.children[0].value = 1.5  # as a student moving the slider
     assert calls[-1] == (1.5, "fixed", None)
     assert box.children[0].continuous_update is False
+
+
+def test_interact_shows_exactly_one_figure_in_a_real_kernel():
+    """Under a Jupyter kernel the widget's output area holds the callback's figure, once."""
+    import nbformat
+    from nbclient import NotebookClient
+    from nbformat.v4 import new_code_cell, new_notebook
+
+    nb = new_notebook(cells=[
+        new_code_cell("%matplotlib inline\nfrom physlab.demos.basics import ode_demo\n"
+                      "from physlab.viz.widgets import interact, log_slider\n"
+                      "box = interact(ode_demo, dt=log_slider(0.02, 0.001, 0.5, 'dt'))\nbox"),
+        # (the browser test checks that the picture changes; here the kernel-side record)
+        new_code_cell("outs = box.out.outputs\n"
+                      "box.children[0].value = 0.05  # the student moves the slider\n"
+                      "print(len(outs), 'image/png' in outs[0]['data'], 'dt = 0.05 s' in box.result._suptitle.get_text())"),
+    ], metadata={"kernelspec": {"name": "python3", "display_name": "Python 3", "language": "python"}})
+    NotebookClient(nb, timeout=120, kernel_name="python3").execute()
+    assert nb.cells[1].outputs[0]["text"].split() == ["1", "True", "True"]

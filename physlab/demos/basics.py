@@ -137,8 +137,8 @@ def ode_demo(dt=0.02, method="explicit_euler", t_end=10.0, k=40.0, m=1.0, gamma=
     b.plot(te, p.energy(ex) - E0, "k", lw=1)
     b.set_xlabel("t (s)")
     b.set_ylabel("E(t) - E(0) (J)")
-    b.set_yscale("symlog", linthresh=1e-3)
-    title = f"{method}, dt = {dt:g} s, ω·dt = {np.sqrt(k / m) * dt:.2f}"
+    b.set_yscale("symlog", linthresh=max(1e-9, min(1e-3, np.nanmax(np.abs(dE[np.isfinite(dE)])) / 10)))
+    title = f"{method}, dt = {dt:.3g} s, ω·dt = {np.sqrt(k / m) * dt:.2f}"
     if blew:
         title += f" — blew up at step {blew}"
     fig.suptitle(title, fontsize=9)
@@ -194,7 +194,7 @@ def stiff_spring_demo(k=4000.0, dt=0.02, t_end=2.0, m=1.0, gamma=0.5):
     ax.set_xlabel("t (s)")
     ax.set_ylabel("height of the mass (m)")
     ax.legend(fontsize=7)
-    ax.set_title(f"k = {k:g} N/m, dt = {dt:g} s, ω·dt = {np.sqrt(k / m) * dt:.2f}", fontsize=9)
+    ax.set_title(f"k = {k:.3g} N/m, dt = {dt:.3g} s, ω·dt = {np.sqrt(k / m) * dt:.2f}", fontsize=9)
     return fig
 
 
@@ -210,7 +210,7 @@ def stability_demo(dt=0.05, k=40.0, m=1.0, gamma=0.5):
     plots.plot_stability_regions(b, ("implicit_euler", "trapezoidal"), points=pts)
     b.set_title("implicit", fontsize=9)
     stable = [mm for mm in METHODS if np.all(np.abs(stability_function(mm, z)) <= 1 + 1e-12)]
-    fig.suptitle(f"dt = {dt:g} s — stable here: " + (", ".join(stable) or "none"), fontsize=8)
+    fig.suptitle(f"dt = {dt:.3g} s — stable here: " + (", ".join(stable) or "none"), fontsize=8)
     return fig
 
 
@@ -322,6 +322,6 @@ def mass_spring_demo(scene="chain", k=None, damping=None, dt=0.002, method="semi
     b.set_ylabel("total energy (J)")
     b.legend(fontsize=6.5)
     kk = s.k.max()
-    b.set_title(f"k = {kk:g} N/m, γ = {s.damping:g}, dt = {dt:g} s "
+    b.set_title(f"k = {kk:.3g} N/m, γ = {s.damping:.3g}, dt = {dt:.3g} s "
                 f"(critical 2/ω_max = {critical_time_step(s):.2g} s)", fontsize=8)
     return fig

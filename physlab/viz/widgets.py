@@ -59,6 +59,7 @@ def interact(callback, **controls):
     for name, par in inspect.signature(callback).parameters.items():  # others keep defaults
         if name not in controls and par.default is not inspect.Parameter.empty:
             fixed[name] = w.fixed(par.default)
-    box = w.interactive(callback, **live, **fixed)
+    # auto_display: show the returned Figure (plain `interactive` would only compute it)
+    box = w.interactive(callback, {"auto_display": True}, **live, **fixed)
     box.layout = w.Layout(width="100%")
     return box

@@ -109,7 +109,8 @@ class LabServer:
                            + self.log_tail())
 
     def _request(self, method, path, timeout=5):
-        req = urllib.request.Request(self.url + path, method=method, data=b"" if method == "POST" else None,
+        req = urllib.request.Request(self.url + path, method=method,
+                                     data=b"" if method == "POST" else None,
                                      headers={"Authorization": f"token {self.token}"})
         with urllib.request.urlopen(req, timeout=timeout) as resp:
             return resp.read()
@@ -145,14 +146,16 @@ class LabServer:
 
 # --------------------------------------------------------------------------- page helpers
 def _wait_until(page, check, timeout, what, poll_ms=200):
-    """Poll ``check()`` (truthy result = done) until ``timeout`` seconds; fail saying ``what``.
-    ``check`` may raise AssertionError to fail early (e.g. when an error output shows up)."""
+    """Poll ``check()`` (truthy result = done) until ``timeout`` seconds; fail saying ``what``
+    (a string, or a callable giving one at failure time). ``check`` may raise AssertionError to
+    fail early (e.g. when an error output shows up)."""
     deadline = time.monotonic() + timeout
     while True:
         result = check()
         if result:
             return result
         if time.monotonic() > deadline:
+            what = what() if callable(what) else what
             raise AssertionError(f"timed out after {timeout} s waiting for {what}")
         page.wait_for_timeout(poll_ms)
 
@@ -198,7 +201,8 @@ def _png_size(src):
 def _wait_new_image(page, box, old_src, what):
     """Wait until the widget shows an image other than ``old_src`` and has settled: the kernel is
     idle and the image stayed the same for SETTLE_SECONDS (each key press makes its own update)."""
-    _wait_until(page, lambda: _check_errors_then(page, lambda: _img_src(box) not in (None, old_src)),
+    _wait_until(page, lambda: _check_errors_then(page, lambda: _img_src(box) not in (None, old_src),
+                                                 f"after {what}"),
                 UPDATE_TIMEOUT, f"the widget figure to change after {what}")
     state = {"src": None, "since": 0.0}
 
@@ -209,13 +213,13 @@ def _wait_new_image(page, box, old_src, what):
             return False
         return now - state["since"] >= SETTLE_SECONDS
 
-    _wait_until(page, lambda: _check_errors_then(page, settled), UPDATE_TIMEOUT,
+    _wait_until(page, lambda: _check_errors_then(page, settled, f"after {what}"), UPDATE_TIMEOUT,
                 f"the widget figure to settle after {what}")
     return state["src"]
 
 
-def _check_errors_then(page, check):
-    _assert_no_errors(page, "while waiting")
+def _check_errors_then(page, check, where="while waiting"):
+    _assert_no_errors(page, where)
     return check()
 
 
@@ -245,7 +249,8 @@ def lab(tmp_path):
     if not Path(CHROMIUM).exists():
         pytest.skip(f"{CHROMIUM} not found: install Debian chromium (`make browser`, or "
                     "`apt-get install chromium`) to run the browser tests")
-    pytest.importorskip("playwright.sync_api", reason="the playwright Python package is not installed")
+    pytest.importorskip("playwright.sync_api",
+                        reason="the playwright Python package is not installed")
     root = tmp_path / "lessons"
     # Work on a copy: running and autosaving in the browser must not touch the committed lessons.
     shutil.copytree(LESSONS, root, ignore=shutil.ignore_patterns(".ipynb_checkpoints"))
@@ -289,7 +294,8 @@ def test_lesson01_interact_widget_redraws_figure(lab, tmp_path):
                             f"{lab.log_tail()}", pytrace=True)
         finally:
             browser.close()
-    print(f"[e2e] browser part took {time.monotonic() - t0:.1f} s; JS errors: {browser_errors or 'none'}")
+    print(f"[e2e] browser part took {time.monotonic() - t0:.1f} s; "
+          f"JS errors: {browser_errors or 'none'}")
 
 
 def _drive_lesson(page, lab, shots_dir):
@@ -298,7 +304,8 @@ def _drive_lesson(page, lab, shots_dir):
     page.locator(".jp-Notebook .jp-Cell").first.wait_for(timeout=PAGE_TIMEOUT * 1000)
     # The toolbar can say idle while the kernel is still starting: wait for the status bar.
     _wait_until(page, lambda: _kernel_idle(page), PAGE_TIMEOUT,
-                f"the status bar to show the kernel idle (it shows {_kernel_status(page)!r})")
+                lambda: f"the status bar to show the kernel idle (it shows "
+                        f"{_kernel_status(page)!r})")
     print(f"[e2e] notebook open, kernel idle after {time.monotonic() - t0:.1f} s")
 
     # Should JupyterLab ever redraw the saved widget state, don't mistake it for the live widget.
@@ -308,12 +315,27 @@ def _drive_lesson(page, lab, shots_dir):
     page.locator(".lm-Menu-item", has_text=re.compile(r"^\s*Run All Cells")).first.click()
 
     box = page.locator(".widget-interact:not([data-e2e-stale])")
-    _wait_until(page, lambda: _check_errors_then(page, lambda: box.count() == 1 and _img_src(box)),
-                RUN_ALL_TIMEOUT, "the interactive widget (.widget-interact) and its figure to render "
-                "after Run All Cells")
-    src0 = _wait_new_image(page, box, None, "Run All Cells")
+    _wait_until(page, lambda: _check_errors_then(page, lambda: box.count() == 1, "during Run All"),
+                RUN_ALL_TIMEOUT,
+                "the interactive widget (.widget-interact) to render after Run All Cells")
     cell = page.locator(".jp-CodeCell", has=box)
-    print(f"[e2e] all cells ran, widget drawn after {time.monotonic() - t0:.1f} s")
+    print(f"[e2e] all cells ran, widget rendered after {time.monotonic() - t0:.1f} s")
+    try:
+        src0 = _wait_new_image(page, box, None, "Run All Cells")
+    except AssertionError as exc:
+        if _img_src(box) is not None:
+            raise
+        shot = shots_dir / "1_initial_no_figure.png"
+        box.scroll_into_view_if_needed()
+        box.screenshot(path=str(shot))
+        out = box.locator(".widget-output")
+        raise AssertionError(
+            f"the interactive widget rendered (its controls: "
+            f"{box.locator('.widget-label').all_inner_texts()}) but its output area shows no "
+            f"figure (kernel status {_kernel_status(page)!r}; output area holds "
+            f"{out.locator('.jp-OutputArea-child').count()} outputs, text "
+            f"{out.inner_text()[:500]!r}); see {shot}") from exc
+    print(f"[e2e] widget figure drawn after {time.monotonic() - t0:.1f} s")
 
     shot0 = _snapshot(box, shots_dir, "1_initial", src0)
     _check_single_figure(cell, box, shot0)
@@ -346,7 +368,8 @@ def _drive_lesson(page, lab, shots_dir):
     method.select_option("rk4")
     src2 = _wait_new_image(page, box, src1, "selecting method rk4")
     shot2 = _snapshot(box, shots_dir, "3_rk4", src2)
-    assert src2 not in (src0, src1), f"figure unchanged after selecting rk4; see {shot1} and {shot2}"
+    assert src2 not in (src0, src1), (
+        f"figure unchanged after selecting rk4; see {shot1} and {shot2}")
     _check_single_figure(cell, box, shot2)
     print(f"[e2e] method rk4: figure redrawn after {time.monotonic() - t0:.1f} s")
 
