@@ -82,7 +82,8 @@ How physlab's implicit solver works (``physlab/integrators.py``)
     so old factors precondition it well. The solver refactorises after a solve that needed
     more than ``refactor_after`` (6) CG iterations. If CG fails within
     ``4 · refactor_after`` iterations, it solves with a fresh factorisation instead.
-  - ``"auto"``: ``"direct"`` below 4,000 unknowns, ``"lagged"`` above.
+  - ``"auto"``: ``"direct"`` below ``LinearSolver.AUTO_DIRECT_BELOW`` (1,000) unknowns,
+    ``"lagged"`` from there on.
 """
 from __future__ import annotations
 
@@ -109,7 +110,7 @@ TARGET_PARTICLES = 10_000    # ... at this many particles
 ISSUE_REFERENCE_MS = 285.0   # the issue's plain reference, 3 Newton iterations, 10k particles
 ISSUE_REFERENCE_SOLVE_MS = 80.0
 REFERENCE_NEWTON_ITERATIONS = 3
-AUTO_DIRECT_BELOW = 4000     # unknowns; LinearSolver("auto") picks "direct" below this
+SMALL_SCENE_BELOW = 4000     # unknowns; small scenes also get "direct" and "lagged" rows
 
 
 # ---------------------------------------------------------------------------------------
@@ -157,7 +158,7 @@ class TimedLinearSolver(LinearSolver):
 def resolved_kind(kind, unknowns):
     if kind != "auto":
         return kind
-    return "auto→" + ("direct" if unknowns < AUTO_DIRECT_BELOW else "lagged")
+    return "auto→" + LinearSolver("auto").resolve(unknowns)
 
 
 def time_simulate(system, x, v, h, steps, repeats, solver_kind=None, **kwargs):
@@ -349,7 +350,7 @@ def bench_size(n, steps, repeats, ref_steps, warmup, solver_kinds):
     x, v = warm_state(system, warmup)
     N = system.n * system.d
     if solver_kinds is None:
-        solver_kinds = ["auto"] + (["direct", "lagged"] if N < AUTO_DIRECT_BELOW else [])
+        solver_kinds = ["auto"] + (["direct", "lagged"] if N < SMALL_SCENE_BELOW else [])
     scene = dict(n=n, particles=system.n, springs=len(system.edges), unknowns=N, steps=steps,
                  repeats=repeats, warmup=warmup, max_speed=float(np.max(np.abs(v))),
                  sag=float(system.X[:, 1].min() - x[:, 1].min()))
@@ -482,7 +483,7 @@ def main(argv=None):
         print(LEGEND)
         scenes = []
         for n in args.sizes:
-            steps = args.steps or (60 if 2 * n * n < AUTO_DIRECT_BELOW else 20)
+            steps = args.steps or (60 if 2 * n * n < SMALL_SCENE_BELOW else 20)
             scene = bench_size(n, steps, args.repeats, args.ref_steps, args.warmup, args.solvers)
             print_scene(scene)
             scenes.append(scene)

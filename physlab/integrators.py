@@ -497,6 +497,15 @@ class LinearSolver:
         self._perm = None
         self.stats = dict(factorizations=0, solves=0, cg_iterations=0)
 
+    #: ``"auto"`` uses ``"direct"`` below this many unknowns, ``"lagged"`` from here on
+    AUTO_DIRECT_BELOW = 1000
+
+    def resolve(self, n_unknowns):
+        """The kind actually used for a system of ``n_unknowns`` (resolves ``"auto"``)."""
+        if self.kind != "auto":
+            return self.kind
+        return "direct" if n_unknowns < self.AUTO_DIRECT_BELOW else "lagged"
+
     def _ordering(self, A):
         """Fill-reducing permutation of ``A``'s graph, cached while the pattern is unchanged.
 
@@ -563,9 +572,7 @@ class LinearSolver:
         ``x0`` warm-starts CG; ``rtol`` (iterative kinds) overrides the default tolerance
         for this solve, e.g. an inexact-Newton forcing term."""
         self.stats["solves"] += 1
-        kind = self.kind
-        if kind == "auto":
-            kind = "direct" if A.shape[0] < 1000 else "lagged"
+        kind = self.resolve(A.shape[0])
         if kind == "direct":
             z = self._factor(A)(b)
         elif kind == "cg":
