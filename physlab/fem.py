@@ -1,0 +1,314 @@
+"""2D Fixed Corotated linear-triangle FEM (PhysAnimator supplementary, Eqs. 1–7).
+
+A body is a triangle mesh with rest positions ``X`` (n, 2), current positions ``x``
+(n, 2) and triangles ``tris`` (T, 3). Per triangle (PhysAnimator supp. notation):
+
+* deformation gradient, Eq. (6): ``F = [x1 - x0, x2 - x0] [X1 - X0, X2 - X0]^-1 = Ds Dm^-1``;
+* Fixed Corotated energy density [Stomakhin et al. 2012], Eq. (5):
+  ``Ψ(F) = μ |F - R|_F² + λ/2 (det F - 1)²`` with ``R`` the rotation of the polar
+  decomposition of ``F``;
+* first Piola–Kirchhoff stress, Eq. (5): ``P = ∂Ψ/∂F = 2μ (F - R) + λ (J - 1) J F^-T``
+  (``J = det F``; ``J F^-T`` is the cofactor matrix, so no inverse is needed);
+* elastic energy ``E = Σ_t Ψ(F_t) V_t`` and forces, Eq. (4): ``f = -∂E/∂x``; for one
+  triangle ``[f1, f2] = -V P Dm^-T`` and ``f0 = -(f1 + f2)``;
+* lumped masses, Eq. (3): ``m_i = Σ_{t ∋ i} ρ_t V_t / 3``.
+
+In 2D, ``V_t`` is the triangle's rest area (unit thickness). Units are whatever the mesh
+uses: for meshes built from images, lengths are pixels, so ``E`` and ``μ, λ`` are energy per
+pixel² and forces are mass·px/s².
+
+The polar rotation uses the closed form for 2×2 matrices: the rotation maximising
+``tr(Rᵀ F)`` is ``R(θ)`` with ``θ = atan2(F10 - F01, F00 + F11)``. For ``det F > 0`` it is
+the polar factor; for inverted triangles (``det F ≤ 0``) it is the rotation of the SVD
+``U V^T`` with the sign of the smallest singular value flipped, which is exactly what makes
+Fixed Corotated robust to inversion (Stomakhin et al. 2012, Sec. 4).
+
+Everything is vectorised over triangles, with scatter by ``np.bincount``. :class:`CorotatedFEM`
+precomputes the rest-shape data in a structure-of-arrays layout for repeated force
+evaluations (the hot loop of :func:`physlab.physanimator.simulate`).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = [
+    "lame_parameters", "rest_shape", "deformation_gradients", "polar_rotation",
+    "fixed_corotated_energy_density", "fixed_corotated_stress", "fixed_corotated_stress_derivative",
+    "elastic_energy", "elastic_forces", "lumped_masses", "CorotatedFEM", "stable_time_step",
+]
+
+
+def lame_parameters(E, nu, plane="strain"):
+    """Lamé parameters ``(μ, λ)`` from Young's modulus ``E`` and Poisson ratio ``ν``.
+
+    ``plane="strain"`` (default; as in PhysAnimator's and Taichi's 2D FEM):
+    ``μ = E / (2 (1 + ν))``, ``λ = E ν / ((1 + ν)(1 - 2ν))``.
+    ``plane="stress"`` (thin sheets): ``λ = E ν / (1 - ν²)``. Arrays broadcast.
+    """
+    E = np.asarray(E, dtype=float)
+    nu = np.asarray(nu, dtype=float)
+    if np.any(E <= 0):
+        raise ValueError(f"Young's modulus must be > 0, got {E}")
+    if np.any(nu <= -1) or np.any(nu >= 0.5):
+        raise ValueError(f"Poisson ratio must lie in (-1, 0.5), got {nu}")
+    mu = E / (2 * (1 + nu))
+    if plane == "strain":
+        lam = E * nu / ((1 + nu) * (1 - 2 * nu))
+    elif plane == "stress":
+        lam = E * nu / (1 - nu**2)
+    else:
+        raise ValueError(f"plane must be 'strain' or 'stress', got {plane!r}")
+    return (float(mu), float(lam)) if mu.ndim == 0 else (mu, lam)
+
+
+def _edge_matrices(P, tris):
+    """``[P1 - P0, P2 - P0]`` as (T, 2, 2) with the edge vectors as columns."""
+    p0 = P[tris[:, 0]]
+    return np.stack([P[tris[:, 1]] - p0, P[tris[:, 2]] - p0], axis=2)
+
+
+def _check_mesh(X, tris):
+    X = np.asarray(X, dtype=float)
+    tris = np.asarray(tris)
+    if X.ndim != 2 or X.shape[1] != 2:
+        raise ValueError(f"X must have shape (n, 2), got {X.shape}")
+    if tris.ndim != 2 or tris.shape[1] != 3 or not np.issubdtype(tris.dtype, np.integer):
+        raise ValueError(f"tris must be an int array of shape (T, 3), got {tris.dtype} {tris.shape}")
+    if tris.size and (tris.min() < 0 or tris.max() >= len(X)):
+        raise ValueError(f"tris refers to vertices outside 0..{len(X) - 1}")
+    return X, tris
+
+
+def rest_shape(X, tris):
+    """Rest-shape data: ``Dm^-1`` (T, 2, 2) and rest areas ``V`` (T,) > 0.
+
+    Raises ValueError for degenerate (zero-area) triangles, naming the first one."""
+    X, tris = _check_mesh(X, tris)
+    Dm = _edge_matrices(X, tris)
+    det = Dm[:, 0, 0] * Dm[:, 1, 1] - Dm[:, 0, 1] * Dm[:, 1, 0]
+    scale = max(np.ptp(X, axis=0).max(), 1e-300) if len(X) else 1.0
+    bad = np.flatnonzero(np.abs(det) <= 1e-12 * scale**2)
+    if bad.size:
+        raise ValueError(f"{bad.size} degenerate (zero-area) triangle(s) in the rest mesh, first "
+                         f"#{bad[0]} with vertices {tris[bad[0]].tolist()}; remove them or re-mesh")
+    inv = np.empty_like(Dm)
+    inv[:, 0, 0], inv[:, 1, 1] = Dm[:, 1, 1] / det, Dm[:, 0, 0] / det
+    inv[:, 0, 1], inv[:, 1, 0] = -Dm[:, 0, 1] / det, -Dm[:, 1, 0] / det
+    return inv, 0.5 * np.abs(det)
+
+
+def deformation_gradients(x, X, tris, Dm_inv=None):
+    """``F = Ds Dm^-1`` (T, 2, 2) — PhysAnimator supp. Eq. (6)."""
+    x = np.asarray(x, dtype=float)
+    if Dm_inv is None:
+        Dm_inv, _ = rest_shape(X, tris)
+    if x.shape != np.shape(X):
+        raise ValueError(f"x must have the shape of X {np.shape(X)}, got {x.shape}")
+    return _edge_matrices(x, np.asarray(tris)) @ Dm_inv  # Eq. (6)
+
+
+def polar_rotation(F):
+    """Rotation ``R`` (…, 2, 2) maximising ``tr(Rᵀ F)``: the polar factor of ``F``, robust
+    to inversion (``det F ≤ 0`` gives a proper rotation too); ``R = I`` when ``F = 0``."""
+    F = np.asarray(F, dtype=float)
+    theta = np.arctan2(F[..., 1, 0] - F[..., 0, 1], F[..., 0, 0] + F[..., 1, 1])
+    c, s = np.cos(theta), np.sin(theta)
+    return np.stack([np.stack([c, -s], -1), np.stack([s, c], -1)], -2)
+
+
+def _cofactor(F):
+    """``J F^-T`` = cofactor matrix of 2×2 ``F``: [[F11, -F10], [-F01, F00]]."""
+    C = np.empty_like(F)
+    C[..., 0, 0], C[..., 0, 1] = F[..., 1, 1], -F[..., 1, 0]
+    C[..., 1, 0], C[..., 1, 1] = -F[..., 0, 1], F[..., 0, 0]
+    return C
+
+
+def fixed_corotated_energy_density(F, mu, lam):
+    """``Ψ(F) = μ |F - R|_F² + λ/2 (det F - 1)²`` (…,) — Eq. (5). ``mu``, ``lam`` broadcast."""
+    F = np.asarray(F, dtype=float)
+    R = polar_rotation(F)
+    J = F[..., 0, 0] * F[..., 1, 1] - F[..., 0, 1] * F[..., 1, 0]
+    return mu * np.sum((F - R) ** 2, axis=(-2, -1)) + 0.5 * lam * (J - 1) ** 2
+
+
+def fixed_corotated_stress(F, mu, lam):
+    """First Piola–Kirchhoff stress ``P = 2μ (F - R) + λ (J - 1) J F^-T`` (…, 2, 2) — Eq. (5)."""
+    F = np.asarray(F, dtype=float)
+    R = polar_rotation(F)
+    J = F[..., 0, 0] * F[..., 1, 1] - F[..., 0, 1] * F[..., 1, 0]
+    mu = np.asarray(mu, dtype=float)[..., None, None]
+    lam = np.asarray(lam, dtype=float)[..., None, None]
+    return 2 * mu * (F - R) + lam * (J - 1)[..., None, None] * _cofactor(F)  # Eq. (5)
+
+
+def fixed_corotated_stress_derivative(F, mu, lam):
+    """``dP/dF`` as (…, 2, 2, 2, 2) with ``dP[..., i, j, k, l] = ∂P_ij / ∂F_kl``.
+
+    Beyond the paper (it uses explicit time stepping): needed by implicit Euler for stiff
+    materials. In 2D the rotation is ``R(θ)`` with ``θ = atan2(B, A)``, ``A = F00 + F11``,
+    ``B = F10 - F01``, so ``∂R/∂F = R'(θ) ⊗ ∂θ/∂F`` with ``∂θ = (A ∂B - B ∂A) / (A² + B²)``;
+    the volume term differentiates the (linear) cofactor matrix.
+    """
+    F = np.asarray(F, dtype=float)
+    R = polar_rotation(F)
+    J = F[..., 0, 0] * F[..., 1, 1] - F[..., 0, 1] * F[..., 1, 0]
+    C = _cofactor(F)
+    shape = F.shape[:-2]
+    mu = np.asarray(mu, dtype=float)
+    lam = np.asarray(lam, dtype=float)
+    a = F[..., 0, 0] + F[..., 1, 1]
+    b = F[..., 1, 0] - F[..., 0, 1]
+    q = a**2 + b**2
+    q = np.where(q > 1e-300, q, 1e-300)
+    # dθ/dF (…, 2, 2)
+    dth = np.zeros(shape + (2, 2))
+    dth[..., 0, 0] = -b / q
+    dth[..., 1, 1] = -b / q
+    dth[..., 1, 0] = a / q
+    dth[..., 0, 1] = -a / q
+    # dR/dθ = R · [[0, -1], [1, 0]]
+    Rp = np.stack([np.stack([-R[..., 1, 0], -R[..., 0, 0]], -1),
+                   np.stack([R[..., 0, 0], -R[..., 1, 0]], -1)], -2)
+    eye4 = np.einsum("ik,jl->ijkl", np.eye(2), np.eye(2))
+    dR = Rp[..., :, :, None, None] * dth[..., None, None, :, :]
+    # d(J F^-T)/dF: cofactor is linear in F
+    dC = np.zeros((2, 2, 2, 2))
+    dC[0, 0, 1, 1] = dC[1, 1, 0, 0] = 1.0
+    dC[0, 1, 1, 0] = dC[1, 0, 0, 1] = -1.0
+    m = mu[..., None, None, None, None]
+    lm = lam[..., None, None, None, None]
+    return (2 * m * (eye4 - dR)
+            + lm * C[..., :, :, None, None] * C[..., None, None, :, :]  # ∂J/∂F = C
+            + lm * (J - 1)[..., None, None, None, None] * dC)
+
+
+def elastic_energy(x, X, tris, mu, lam):
+    """Total elastic energy ``E = Σ_t Ψ(F_t) V_t`` (float) — Eq. (4)."""
+    Dm_inv, V = rest_shape(X, tris)
+    F = deformation_gradients(x, X, tris, Dm_inv)
+    return float(np.sum(fixed_corotated_energy_density(F, mu, lam) * V))
+
+
+def _scatter_forces(tris, H, n):
+    """Scatter per-triangle force columns ``H = [f1, f2]`` (T, 2, 2) into (n, 2) forces."""
+    f = np.empty((n, 2))
+    idx = np.concatenate([tris[:, 0], tris[:, 1], tris[:, 2]])
+    for a in range(2):
+        w = np.concatenate([-(H[:, a, 0] + H[:, a, 1]), H[:, a, 0], H[:, a, 1]])
+        f[:, a] = np.bincount(idx, w, n)
+    return f
+
+
+def elastic_forces(x, X, tris, mu, lam):
+    """Elastic forces ``f = -∂E/∂x`` (n, 2) — Eq. (4): ``[f1, f2] = -V P Dm^-T``, ``f0 = -f1 - f2``."""
+    X, tris = _check_mesh(X, tris)
+    Dm_inv, V = rest_shape(X, tris)
+    F = deformation_gradients(x, X, tris, Dm_inv)
+    P = fixed_corotated_stress(F, mu, lam)
+    H = -V[:, None, None] * (P @ np.swapaxes(Dm_inv, 1, 2))  # Eq. (4)
+    return _scatter_forces(tris, H, len(X))
+
+
+def lumped_masses(X, tris, rho):
+    """Lumped vertex masses ``m_i = Σ_{t ∋ i} ρ_t V_t / 3`` (n,) — Eq. (3). ``rho`` scalar or (T,)."""
+    X, tris = _check_mesh(X, tris)
+    _, V = rest_shape(X, tris)
+    rho = np.broadcast_to(np.asarray(rho, dtype=float), V.shape)
+    if np.any(rho <= 0):
+        raise ValueError("density rho must be > 0")
+    w = np.repeat(rho * V / 3.0, 3)  # Eq. (3)
+    return np.bincount(tris.reshape(-1), w, len(X))
+
+
+def stable_time_step(X, tris, E, nu, rho, safety=0.5):
+    """CFL-like estimate of the largest stable explicit step (s): ``safety · h_min / c`` with
+    ``h_min`` the smallest triangle height and ``c = sqrt((λ + 2μ)/ρ)`` the dilatational wave
+    speed. Units follow the mesh (pixels → px/s)."""
+    X, tris = _check_mesh(X, tris)
+    mu, lam = lame_parameters(np.max(E), nu)
+    c = np.sqrt((lam + 2 * mu) / np.min(rho))
+    _, V = rest_shape(X, tris)
+    e = np.stack([X[tris[:, 1]] - X[tris[:, 0]], X[tris[:, 2]] - X[tris[:, 1]],
+                  X[tris[:, 0]] - X[tris[:, 2]]], 1)
+    longest = np.linalg.norm(e, axis=2).max(1)
+    h_min = float(np.min(2 * V / longest))
+    return safety * h_min / c
+
+
+class CorotatedFEM:
+    """Precomputed Fixed Corotated FEM for one mesh: fast repeated ``forces(x)``.
+
+    Structure of arrays: the four entries of ``Dm^-1``, ``V``, and the per-triangle
+    ``μ V``, ``λ V`` are stored as flat (T,) arrays; ``forces`` evaluates Eqs. (4–6) with
+    closed-form 2×2 arithmetic and two ``np.bincount`` scatters.
+
+    Parameters
+    ----------
+    X : (n, 2) rest positions.  tris : (T, 3) int.  mu, lam : scalars or (T,).
+    """
+
+    def __init__(self, X, tris, mu, lam):
+        X, tris = _check_mesh(X, tris)
+        Dm_inv, V = rest_shape(X, tris)
+        self.X, self.tris, self.n = X, tris.astype(np.intp), len(X)
+        self.V = V
+        self.mu = np.broadcast_to(np.asarray(mu, dtype=float), V.shape).copy()
+        self.lam = np.broadcast_to(np.asarray(lam, dtype=float), V.shape).copy()
+        self._B = [np.ascontiguousarray(Dm_inv[:, i, j]) for i in range(2) for j in range(2)]
+        self._muV = 2 * self.mu * V
+        self._lamV = self.lam * V
+        self._i0, self._i1, self._i2 = (np.ascontiguousarray(self.tris[:, k]) for k in range(3))
+        self._idx = np.concatenate([self._i0, self._i1, self._i2])
+
+    def deformation_gradients(self, x):
+        """(T, 2, 2) ``F`` — Eq. (6)."""
+        return deformation_gradients(x, self.X, self.tris, self.Dm_inv)
+
+    @property
+    def Dm_inv(self):
+        b00, b01, b10, b11 = self._B
+        return np.stack([np.stack([b00, b01], -1), np.stack([b10, b11], -1)], -2)
+
+    def _F(self, x):
+        x0, y0 = x[self._i0, 0], x[self._i0, 1]
+        e1x, e1y = x[self._i1, 0] - x0, x[self._i1, 1] - y0
+        e2x, e2y = x[self._i2, 0] - x0, x[self._i2, 1] - y0
+        b00, b01, b10, b11 = self._B
+        return (e1x * b00 + e2x * b10, e1x * b01 + e2x * b11,
+                e1y * b00 + e2y * b10, e1y * b01 + e2y * b11)  # Eq. (6), row-major F
+
+    def energy(self, x):
+        """Total elastic energy (float)."""
+        a, b, c, d = self._F(np.asarray(x, dtype=float))
+        th = np.arctan2(c - b, a + d)
+        cs, sn = np.cos(th), np.sin(th)
+        J = a * d - b * c
+        psi = 0.5 * self._muV * ((a - cs) ** 2 + (b + sn) ** 2 + (c - sn) ** 2 + (d - cs) ** 2)
+        return float(np.sum(psi + 0.5 * self._lamV * (J - 1) ** 2))
+
+    def forces(self, x):
+        """Elastic forces ``-∂E/∂x`` (n, 2) — Eqs. (4–6), structure-of-arrays closed forms."""
+        a, b, c, d = self._F(np.asarray(x, dtype=float))
+        # polar rotation R = [[cs, -sn], [sn, cs]] (closed form for 2×2)
+        r = np.hypot(a + d, c - b)
+        safe = np.where(r > 0, r, 1.0)
+        cs = np.where(r > 0, (a + d) / safe, 1.0)
+        sn = np.where(r > 0, (c - b) / safe, 0.0)
+        # V·P = 2μV (F - R) + λV (J - 1) cof(F)   (Eq. 5), cof(F) = [[d, -c], [-b, a]]
+        g = self._lamV * (a * d - b * c - 1)
+        m = self._muV
+        p00 = m * (a - cs) + g * d
+        p01 = m * (b + sn) - g * c
+        p10 = m * (c - sn) - g * b
+        p11 = m * (d - cs) + g * a
+        b00, b01, b10, b11 = self._B
+        # [f1, f2] = -(V P) Dm^-T   (Eq. 4)
+        f1x = -(p00 * b00 + p01 * b01)
+        f2x = -(p00 * b10 + p01 * b11)
+        f1y = -(p10 * b00 + p11 * b01)
+        f2y = -(p10 * b10 + p11 * b11)
+        f = np.empty((self.n, 2))
+        f[:, 0] = np.bincount(self._idx, np.concatenate([-(f1x + f2x), f1x, f2x]), self.n)
+        f[:, 1] = np.bincount(self._idx, np.concatenate([-(f1y + f2y), f1y, f2y]), self.n)
+        return f
