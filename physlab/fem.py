@@ -288,27 +288,89 @@ class CorotatedFEM:
         return float(np.sum(psi + 0.5 * self._lamV * (J - 1) ** 2))
 
     def forces(self, x):
-        """Elastic forces ``-∂E/∂x`` (n, 2) — Eqs. (4–6), structure-of-arrays closed forms."""
-        a, b, c, d = self._F(np.asarray(x, dtype=float))
-        # polar rotation R = [[cs, -sn], [sn, cs]] (closed form for 2×2)
-        r = np.hypot(a + d, c - b)
-        safe = np.where(r > 0, r, 1.0)
-        cs = np.where(r > 0, (a + d) / safe, 1.0)
-        sn = np.where(r > 0, (c - b) / safe, 0.0)
-        # V·P = 2μV (F - R) + λV (J - 1) cof(F)   (Eq. 5), cof(F) = [[d, -c], [-b, a]]
-        g = self._lamV * (a * d - b * c - 1)
-        m = self._muV
-        p00 = m * (a - cs) + g * d
-        p01 = m * (b + sn) - g * c
-        p10 = m * (c - sn) - g * b
-        p11 = m * (d - cs) + g * a
+        """Elastic forces ``-∂E/∂x`` (n, 2) — Eqs. (4–6), structure-of-arrays closed forms.
+
+        Same result as :func:`elastic_forces` (the readable reference); this version works in
+        preallocated (T,) buffers with in-place ufuncs, because on large meshes allocating
+        fresh temporaries (page faults) costs more than the arithmetic itself."""
+        x = np.asarray(x, dtype=float)
+        if x.shape != (self.n, 2):
+            raise ValueError(f"x must have shape ({self.n}, 2), got {x.shape}")
+        w = self._buffers()
+        a, b, c, d, t, r = w["a"], w["b"], w["c"], w["d"], w["t"], w["r"]
+        p00, p01, p10, p11 = w["p00"], w["p01"], w["p10"], w["p11"]
         b00, b01, b10, b11 = self._B
-        # [f1, f2] = -(V P) Dm^-T   (Eq. 4)
-        f1x = -(p00 * b00 + p01 * b01)
-        f2x = -(p00 * b10 + p01 * b11)
-        f1y = -(p10 * b00 + p11 * b01)
-        f2y = -(p10 * b10 + p11 * b11)
+        # edge vectors e1 = x1 - x0, e2 = x2 - x0 (stored in the p buffers for now)
+        e1x, e1y, e2x, e2y = p00, p01, p10, p11
+        np.copyto(w["xs"], x[:, 0])  # contiguous columns gather faster
+        np.copyto(w["ys"], x[:, 1])
+        for col, e1, e2 in ((w["xs"], e1x, e2x), (w["ys"], e1y, e2y)):
+            np.take(col, self._i0, out=t)
+            np.take(col, self._i1, out=e1)
+            np.take(col, self._i2, out=e2)
+            e1 -= t
+            e2 -= t
+        # F = Ds Dm^-1 (Eq. 6): rows (e1x, e2x) and (e1y, e2y) times Dm^-1
+        for out, u, v, bu, bv in ((a, e1x, e2x, b00, b10), (b, e1x, e2x, b01, b11),
+                                  (c, e1y, e2y, b00, b10), (d, e1y, e2y, b01, b11)):
+            np.multiply(u, bu, out=out)
+            np.multiply(v, bv, out=t)
+            out += t
+        # polar rotation R = [[cs, -sn], [sn, cs]], cs = (a + d)/r, sn = (c - b)/r; R = I if r = 0
+        cs, sn, g, z = w["cs"], w["sn"], w["g"], w["z"]
+        np.add(a, d, out=cs)
+        np.subtract(c, b, out=sn)
+        np.hypot(cs, sn, out=r)
+        np.equal(r, 0.0, out=z)
+        r += z
+        cs += z
+        cs /= r
+        sn /= r
+        # g = λV (J - 1); V·P = 2μV (F - R) + g cof(F), cof(F) = [[d, -c], [-b, a]] (Eq. 5)
+        np.multiply(a, d, out=g)
+        np.multiply(b, c, out=t)
+        g -= t
+        g -= 1.0
+        g *= self._lamV
+        m = self._muV
+        for out, f_ij, rot, sign_r, cof, sign_c in ((p00, a, cs, -1, d, 1), (p01, b, sn, 1, c, -1),
+                                                    (p10, c, sn, -1, b, -1), (p11, d, cs, -1, a, 1)):
+            if sign_r > 0:
+                np.add(f_ij, rot, out=out)
+            else:
+                np.subtract(f_ij, rot, out=out)
+            out *= m
+            np.multiply(g, cof, out=t)
+            if sign_c > 0:
+                out += t
+            else:
+                out -= t
+        # [f1, f2] = -(V P) Dm^-T (Eq. 4); f0 = -(f1 + f2); scatter with bincount
+        T = len(t)
         f = np.empty((self.n, 2))
-        f[:, 0] = np.bincount(self._idx, np.concatenate([-(f1x + f2x), f1x, f2x]), self.n)
-        f[:, 1] = np.bincount(self._idx, np.concatenate([-(f1y + f2y), f1y, f2y]), self.n)
+        for k, (pa, pb) in enumerate(((p00, p01), (p10, p11))):
+            W = w["w"]
+            f0, f1, f2 = W[:T], W[T:2 * T], W[2 * T:]
+            np.multiply(pa, b00, out=f1)
+            np.multiply(pb, b01, out=t)
+            f1 += t
+            np.multiply(pa, b10, out=f2)
+            np.multiply(pb, b11, out=t)
+            f2 += t
+            np.add(f1, f2, out=f0)  # f0 = -(f1 + f2) with f1, f2 still of the wrong sign
+            f1 *= -1.0
+            f2 *= -1.0
+            f[:, k] = np.bincount(self._idx, W, self.n)
         return f
+
+    def _buffers(self):
+        """Work arrays, allocated once per model."""
+        if getattr(self, "_work", None) is None:
+            T = len(self.V)
+            self._work = {k: np.empty(T) for k in ("a", "b", "c", "d", "t", "r", "cs", "sn", "g",
+                                                   "p00", "p01", "p10", "p11")}
+            self._work["z"] = np.empty(T)
+            self._work["w"] = np.empty(3 * T)
+            self._work["xs"] = np.empty(self.n)
+            self._work["ys"] = np.empty(self.n)
+        return self._work
