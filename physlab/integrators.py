@@ -610,6 +610,8 @@ def simulate(
     max_iter: int = 20,
     solver: str = "auto",
     progress: bool = False,
+    project=None,
+    save_every: int = 1,
 ) -> SimulationResult:
     """Advance ``M x'' = f(x, v, t)`` by ``n_steps`` steps of size ``dt``.
 
@@ -645,10 +647,14 @@ def simulate(
     solver : linear solver for ``M - h D - h^2 K``: ``"auto"``, ``"direct"``, ``"cg"``,
         ``"lagged"`` (see :class:`LinearSolver`), or a :class:`LinearSolver` instance.
     progress : tqdm progress bar.
+    project : optional callable ``project(t_next, x, v)`` run after every step, before
+        pinning; it may modify ``x`` and ``v`` (n, d) in place (kinematic rigs, contacts).
+    save_every : store every ``save_every``-th state only (long runs, few frames).
 
     Returns
     -------
-    SimulationResult with ``t``, ``x``, ``v``; ``newton[k]`` residual norms of step ``k``.
+    SimulationResult with ``t``, ``x``, ``v`` (the stored states: ``n_steps // save_every + 1``);
+    ``newton[k]`` residual norms of step ``k``.
     """
     _check_method(method, MECHANICAL_METHODS)
     dt = _check_dt(dt)
@@ -680,10 +686,15 @@ def simulate(
 
     if method == "implicit_euler" and not isinstance(solver, LinearSolver):
         solver = LinearSolver(solver)
-    t = t0 + dt * np.arange(n_steps + 1)
-    X = np.empty((n_steps + 1, n, d))
-    V = np.empty((n_steps + 1, n, d))
+    if int(save_every) != save_every or save_every < 1:
+        raise ValueError(f"save_every must be a positive integer, got {save_every!r}")
+    save_every = int(save_every)
+    n_saved = n_steps // save_every + 1
+    t = t0 + dt * save_every * np.arange(n_saved)
+    X = np.empty((n_saved, n, d))
+    V = np.empty((n_saved, n, d))
     X[0], V[0] = x0, v0
+    x, v, v_prev = x0, v0, None
     newton_hist = []
 
     def force(x, v, tt):
@@ -698,7 +709,7 @@ def simulate(
 
         steps = tqdm(steps, desc=method, leave=False)
     for k in steps:
-        x, v, tk = X[k], V[k], t[k]
+        tk = t0 + k * dt
         with np.errstate(over="ignore", invalid="ignore"):
             if method == "explicit_euler":
                 a = force(x, v, tk) * inv_m[:, None]
@@ -710,17 +721,22 @@ def simulate(
             else:
                 vn, hist = _implicit_euler_velocity(
                     system, force, x, v, tk, dt, M_flat, pinned_dofs, newton, tol, max_iter, solver,
-                    dv_guess=None if k == 0 else (V[k] - V[k - 1]).reshape(-1), atol=atol)
+                    dv_guess=None if v_prev is None else (v - v_prev).reshape(-1), atol=atol)
                 newton_hist.append(hist)
                 vn = vn.reshape(n, d)
                 xn = x + dt * vn
+            if project is not None:
+                project(tk + dt, xn, vn)  # kinematic constraints, contacts: in place
             vn[fixed] = 0.0
             xn[fixed] = x0[fixed]
         if not (np.all(np.isfinite(xn)) and np.all(np.isfinite(vn))):
-            partial = SimulationResult(t[: k + 1].copy(), X[: k + 1].copy(), V[: k + 1].copy(),
+            kept = k // save_every + 1
+            partial = SimulationResult(t[:kept].copy(), X[:kept].copy(), V[:kept].copy(),
                                        method, dt, newton_hist)
             raise SimulationDiverged(k + 1, tk, dt, method, partial)
-        X[k + 1], V[k + 1] = xn, vn
+        v_prev, x, v = v, xn, vn
+        if (k + 1) % save_every == 0:
+            X[(k + 1) // save_every], V[(k + 1) // save_every] = x, v
     return SimulationResult(t, X, V, method, dt, newton_hist)
 
 

@@ -266,3 +266,23 @@ def test_convergence_order_helper():
     assert convergence_order(dts, 3 * dts**2) == pytest.approx(2.0)
     with pytest.raises(ValueError):
         convergence_order([0.1], [0.2])
+
+
+def test_save_every_subsamples_and_project_hook_constrains():
+    c = springs.chain(6, k=400.0)
+    x0, v0 = c.rest_state()
+    full = simulate(c, x0, v0, 0.002, 300, "semi_implicit_euler")
+    sub = simulate(c, x0, v0, 0.002, 300, "semi_implicit_euler", save_every=50)
+    np.testing.assert_allclose(sub.x, full.x[::50])
+    np.testing.assert_allclose(sub.t, full.t[::50])
+    calls = []
+
+    def floor(t, x, v):  # a ground at y = -0.3: project and stop
+        calls.append(t)
+        below = x[:, 1] < -0.3
+        x[below, 1] = -0.3
+        v[below, 1] = 0.0
+
+    r = simulate(c, x0, v0, 0.002, 300, "semi_implicit_euler", project=floor)
+    assert r.x[:, :, 1].min() >= -0.3 and full.x[:, :, 1].min() < -0.3
+    assert calls[0] == pytest.approx(0.002) and len(calls) == 300
