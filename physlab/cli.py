@@ -96,7 +96,9 @@ def main(argv=None):
         for p in args.paths:
             t0 = time.perf_counter()
             nb = execute_notebook(p, timeout=args.timeout)
-            nbformat.write(nb, p)
+            tmp = Path(f"{p}.part")
+            nbformat.write(nb, tmp)
+            tmp.replace(p)  # atomic: a failed run never leaves a half-written lesson
             print(f"{p}: executed in {time.perf_counter() - t0:.1f} s")
     else:
         for p in lesson_paths():

@@ -83,17 +83,26 @@ class HangingSpring:
                 + self.m * self.g * y[..., 1])
 
     def exact(self, t):
-        """Exact ``y(t)`` (T, 4): a damped oscillation about the equilibrium along y."""
-        t = np.asarray(t, float)
+        """Exact ``y(t)`` (T, 4): a damped oscillation about the equilibrium along y
+        (under-, critically or over-damped by ``ζ = γ / 2 sqrt(k m)``)."""
+        t = np.asarray(t, float).reshape(-1)
         w0 = np.sqrt(self.k / self.m)
         zeta = self.gamma / (2 * np.sqrt(self.k * self.m))
-        if zeta >= 1:
-            raise ValueError("exact solution implemented for the under-damped case gamma < 2 sqrt(k m)")
-        wd = w0 * np.sqrt(1 - zeta**2)
         A = self.m * self.g / self.k  # starts A above equilibrium, at rest
-        decay = np.exp(-zeta * w0 * t)
-        u = A * decay * (np.cos(wd * t) + zeta * w0 / wd * np.sin(wd * t))
-        du = -A * decay * (w0**2 / wd) * np.sin(wd * t)
+        if abs(zeta - 1) < 1e-8:  # critical: u = A (1 + ω0 t) e^(-ω0 t)
+            e = np.exp(-w0 * t)
+            u, du = A * (1 + w0 * t) * e, -A * w0**2 * t * e
+        elif zeta > 1:  # over-damped: two real decay rates r1, r2
+            q = w0 * np.sqrt(zeta**2 - 1)
+            r1, r2 = -zeta * w0 + q, -zeta * w0 - q
+            e1, e2 = np.exp(r1 * t), np.exp(r2 * t)
+            u = A * (r1 * e2 - r2 * e1) / (r1 - r2)
+            du = A * r1 * r2 * (e2 - e1) / (r1 - r2)
+        else:
+            wd = w0 * np.sqrt(1 - zeta**2)
+            decay = np.exp(-zeta * w0 * t)
+            u = A * decay * (np.cos(wd * t) + zeta * w0 / wd * np.sin(wd * t))
+            du = -A * decay * (w0**2 / wd) * np.sin(wd * t)
         y = np.zeros((t.size, 4))
         y[:, 0] = self.anchor[0]
         y[:, 1] = self.equilibrium[1] + u
@@ -254,9 +263,10 @@ def run_scene(system, dt=0.005, duration=2.0, method="semi_implicit_euler"):
 
 
 def critical_time_step(system):
-    """``2 / ω_max``: the largest stable step of explicit/semi-implicit Euler for the
+    """``2 / ω_max``: the largest stable step of semi-implicit (symplectic) Euler for the
     linearised, undamped system at rest (``ω_max²`` = largest eigenvalue of ``-M^-1 K`` over
-    the free particles). Dense eigenvalues: meant for lesson-sized systems (≲ 1,000 dofs)."""
+    the free particles). Explicit Euler has no such step without damping: it gains energy at
+    every ``dt`` (lesson 01). Dense eigenvalues: for lesson-sized systems (≲ 1,000 dofs)."""
     from scipy.linalg import eigh
 
     x, v = system.rest_state()
@@ -270,11 +280,13 @@ def critical_time_step(system):
     return float(2.0 / np.sqrt(max(w2, 1e-300)))
 
 
-def energy_comparison(system, dt=0.005, duration=2.0, methods=MECHANICAL_METHODS):
-    """Total energy over time for each mechanical method: dict method -> (t, E, blew_up_step)."""
+def energy_comparison(system, dt=0.005, duration=2.0, methods=MECHANICAL_METHODS, runs=None):
+    """Total energy over time for each mechanical method: dict method -> (t, E, blew_up_step).
+
+    ``runs``: optional dict method -> ``(result, blew_up_step)`` already simulated."""
     out = {}
     for m in methods:
-        r, blew = run_scene(system, dt, duration, m)
+        r, blew = (runs or {}).get(m) or run_scene(system, dt, duration, m)
         with np.errstate(over="ignore", invalid="ignore"):
             E = np.array([system.energy(x, v) for x, v in zip(r.x, r.v)])
         out[m] = (r.t, E, blew)
@@ -304,7 +316,8 @@ def mass_spring_demo(scene="chain", k=None, damping=None, dt=0.002, method="semi
     a.set_title(f"{scene}: {method}, t = {r.t[sane[-1]]:.2f} s"
                 + (f", blew up at step {blew}" if blew else ""), fontsize=9)
     e0 = s.energy(*s.rest_state())
-    E = energy_comparison(s, dt, duration, MECHANICAL_METHODS if compare else (method,))
+    E = energy_comparison(s, dt, duration, MECHANICAL_METHODS if compare else (method,),
+                          runs={method: (r, blew)})
     tame = [e for _, e, bl in E.values() if bl is None and np.ptp(e) < 10 * abs(e0) + 10]
     ref = np.concatenate(tame) if tame else np.array([e0 - 1.0, e0 + 1.0])
     lo, hi = min(ref.min(), e0), max(ref.max(), e0)

@@ -9,16 +9,14 @@ from matplotlib.figure import Figure
 __all__ = ["animate_springs", "to_html", "save_gif"]
 
 
-def _ffmpeg_available():
-    import matplotlib
-
+def _ffmpeg_exe():
+    """Path of the ffmpeg binary shipped with imageio-ffmpeg, or None."""
     try:
         import imageio_ffmpeg
 
-        matplotlib.rcParams["animation.ffmpeg_path"] = imageio_ffmpeg.get_ffmpeg_exe()
-        return True
-    except Exception:  # no bundled ffmpeg: fall back to a JavaScript player
-        return False
+        return imageio_ffmpeg.get_ffmpeg_exe()
+    except Exception:  # no bundled ffmpeg: callers fall back to a JavaScript player
+        return None
 
 
 def to_html(anim, fmt="video"):
@@ -26,8 +24,10 @@ def to_html(anim, fmt="video"):
     imageio-ffmpeg; small) or ``"jshtml"`` (PNG frames + JavaScript player; no ffmpeg)."""
     import matplotlib
 
-    if fmt == "video" and _ffmpeg_available():
-        with matplotlib.rc_context({"animation.bitrate": 300}):  # kbit/s: small notebooks
+    exe = _ffmpeg_exe() if fmt == "video" else None
+    if exe:
+        # kbit/s: small notebooks; settings only for this call (no global rcParams change)
+        with matplotlib.rc_context({"animation.bitrate": 300, "animation.ffmpeg_path": exe}):
             return anim.to_html5_video()
     return anim.to_jshtml()
 

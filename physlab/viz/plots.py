@@ -6,7 +6,7 @@ from matplotlib.collections import LineCollection
 from matplotlib.figure import Figure
 
 __all__ = ["new_figure", "draw_springs", "plot_convergence", "plot_stability_regions",
-           "plot_energies", "plot_snapshots", "plot_newton_residuals"]
+           "plot_snapshots", "plot_newton_residuals"]
 
 #: One colour per integration method, shared by all lesson plots.
 METHOD_COLORS = {
@@ -22,7 +22,8 @@ METHOD_COLORS = {
 
 
 def new_figure(ncols=1, nrows=1, width=4.2, height=3.2, **subplot_kw):
-    """A :class:`Figure` with an ``nrows × ncols`` grid of axes; returns ``(fig, axes)``.
+    """A :class:`Figure` with ``ncols`` columns and ``nrows`` rows of axes (note the order:
+    columns first, as lessons mostly lay panels side by side); returns ``(fig, axes)``.
 
     ``width``/``height`` are per panel, in inches (lessons keep figures small)."""
     fig = Figure(figsize=(width * ncols, height * nrows), layout="constrained")
@@ -30,12 +31,12 @@ def new_figure(ncols=1, nrows=1, width=4.2, height=3.2, **subplot_kw):
     return fig, (axes[0, 0] if axes.size == 1 else axes.ravel())
 
 
-def draw_springs(ax, x, edges, fixed=(), color="0.3", lw=0.8, particle_size=6, stress=None,
+def draw_springs(ax, x, edges, fixed=(), color="0.3", lw=0.8, particle_size=6, strain_limit=None,
                  rest_length=None):
     """Draw a 2-D spring system: springs as lines, particles as dots, fixed ones as squares.
 
     x : (n, 2) positions; edges : (E, 2) int. With ``rest_length`` (E,), springs are coloured
-    by strain ``l/L - 1`` (blue compressed, red stretched, limits ±``stress`` or ±5 %).
+    by strain ``l/L - 1`` (blue compressed, red stretched, limits ±``strain_limit`` or ±5 %).
     Returns the LineCollection.
     """
     x = np.asarray(x)
@@ -45,7 +46,7 @@ def draw_springs(ax, x, edges, fixed=(), color="0.3", lw=0.8, particle_size=6, s
     else:
         lc = LineCollection(segs, linewidths=lw, zorder=1)
         strain = np.linalg.norm(segs[:, 1] - segs[:, 0], axis=1) / np.maximum(rest_length, 1e-12) - 1
-        lim = stress or 0.05
+        lim = strain_limit or 0.05
         lc.set_array(strain)
         lc.set_cmap("coolwarm")
         lc.set_clim(-lim, lim)
@@ -123,17 +124,6 @@ def plot_stability_regions(ax, methods, extent=(-4.5, 2.5, -3.5, 3.5), points=No
     ax.set_ylabel("Im(hλ)")
     ax.set_aspect("equal")
     ax.legend(fontsize=7, loc="upper left")
-
-
-def plot_energies(ax, t, energies, reference=None):
-    """Total energy over time per method (``energies``: dict method -> (T,))."""
-    for m, e in energies.items():
-        ax.plot(t[: len(e)], e, color=METHOD_COLORS.get(m), label=m)
-    if reference is not None:
-        ax.axhline(reference, color="k", ls=":", lw=1, label="initial energy")
-    ax.set_xlabel("t (s)")
-    ax.set_ylabel("total energy (J)")
-    ax.legend(fontsize=7)
 
 
 def plot_newton_residuals(ax, residuals, label=None):

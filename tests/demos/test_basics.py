@@ -27,6 +27,13 @@ def _fd_jac(f, y, h=1e-6):
     return np.array([(f(0, y + h * e) - f(0, y - h * e)) / (2 * h) for e in np.eye(len(y))]).T
 
 
+@pytest.mark.parametrize("gamma", [0.0, 3.0, 2 * np.sqrt(40.0 * 1.5), 40.0])  # under/critical/over
+def test_exact_solution_all_damping_regimes(gamma):
+    p = basics.HangingSpring(k=40.0, m=1.5, gamma=gamma)
+    r = integrate(p.f, p.y0, (0.0, 2.0), 1e-3, "rk4")
+    np.testing.assert_allclose(r.y[::100], p.exact(r.t[::100]), atol=1e-9)
+
+
 def test_hanging_spring_matches_spring_system():
     p = basics.HangingSpring(k=30.0, m=2.0, gamma=0.4)
     s = p.system()
