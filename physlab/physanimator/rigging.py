@@ -1,0 +1,74 @@
+"""Rigging points (PhysAnimator supp. Sec. 2, Eq. 10): fixed regions and wavy rigs.
+
+A rig selects vertices of one body — those within ``radius`` px of ``center`` in the rest
+shape, or an explicit list — and drives them kinematically (their dynamics are overridden):
+
+* :class:`FixedRig` pins them at their rest positions;
+* :class:`WavyRig` moves them with the wavy rigging point of Eq. (10),
+  ``x_r(t) = X_r + s sin(f t) d_r``: every selected vertex follows the rig point's offset
+  ``s sin(f t) d_r`` (``f`` in rad/s, ``d_r`` normalised), with velocity ``s f cos(f t) d_r``.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["FixedRig", "WavyRig", "wavy_rig_position"]
+
+
+def wavy_rig_position(X_r, s, f, d_r, t):
+    """Eq. (10): ``x_r(t) = X_r + s sin(f t) d_r`` (``X_r`` (..., 2); ``d_r`` normalised)."""
+    d = np.asarray(d_r, dtype=float)
+    d = d / np.linalg.norm(d)
+    return np.asarray(X_r, dtype=float) + s * np.sin(f * t) * d  # Eq. (10)
+
+
+@dataclass
+class FixedRig:
+    """Pin the vertices of body ``body`` within ``radius`` of ``center`` (or ``vertices``)."""
+
+    body: int = 0
+    center: tuple | None = None
+    radius: float | None = None
+    vertices: tuple | None = None
+
+    def select(self, X):
+        """Indices (k,) of the rigged vertices of a body with rest positions ``X`` (n, 2)."""
+        if self.vertices is not None:
+            idx = np.unique(np.asarray(self.vertices, dtype=int))
+            if idx.size and (idx.min() < 0 or idx.max() >= len(X)):
+                raise ValueError(f"rig vertices outside 0..{len(X) - 1}")
+            return idx
+        if self.center is None or self.radius is None:
+            raise ValueError("a rig needs either vertices or center and radius")
+        idx = np.flatnonzero(np.linalg.norm(X - np.asarray(self.center, float), axis=1) <= self.radius)
+        if idx.size == 0:
+            raise ValueError(f"rig at {self.center} with radius {self.radius} selects no vertex; "
+                             "move it onto the body or enlarge the radius")
+        return idx
+
+    def offset(self, t):
+        """Displacement (2,) and velocity (2,) of the rigged vertices at time ``t``."""
+        return np.zeros(2), np.zeros(2)
+
+    def to_dict(self):
+        return {"type": type(self).__name__, **{k: (list(v) if isinstance(v, (tuple, np.ndarray)) else v)
+                                                 for k, v in self.__dict__.items()}}
+
+
+@dataclass
+class WavyRig(FixedRig):
+    """Wavy rigging point, Eq. (10): amplitude ``s`` (px), frequency ``f`` (rad/s),
+    direction ``d_r``; the selected region follows ``s sin(f t) d_r``."""
+
+    amplitude: float = 20.0
+    frequency: float = 2 * np.pi
+    direction: tuple = (1.0, 0.0)
+
+    def offset(self, t):
+        d = np.asarray(self.direction, dtype=float)
+        d = d / np.linalg.norm(d)
+        disp = wavy_rig_position(np.zeros(2), self.amplitude, self.frequency, d, t)  # Eq. (10)
+        vel = self.amplitude * self.frequency * np.cos(self.frequency * t) * d
+        return disp, vel
