@@ -111,13 +111,6 @@ def test_missing_external_data_raises_clear_error(monkeypatch):
         datasets.animated_drawing("char7")
 
 
-@pytest.fixture(scope="module")
-def real_data():
-    if datasets.external_data_dir() is None:
-        pytest.skip("external data folder not found: set PHYSLAB_EXTERNAL_DATA or provide "
-                    "<repo root>/../shared/data (AnimatedDrawings characters)")
-
-
 @pytest.mark.parametrize("name", datasets.ANIMATED_DRAWINGS)
 def test_animated_drawing_loads(real_data, name):
     d = datasets.animated_drawing(name)

@@ -337,13 +337,6 @@ REFERENCE_IOU = {"char1": 0.985, "char2": 0.936, "char3": 0.957, "char4": 0.911,
                  "char6": 0.983}
 
 
-@pytest.fixture(scope="module")
-def real_data():
-    if datasets.external_data_dir() is None:
-        pytest.skip("external data folder not found: set PHYSLAB_EXTERNAL_DATA or provide "
-                    "<repo root>/../shared/data (AnimatedDrawings characters)")
-
-
 @pytest.mark.parametrize("name", datasets.ANIMATED_DRAWINGS)
 def test_real_drawing_mask_and_mesh(real_data, name):
     d = datasets.animated_drawing(name)

@@ -46,12 +46,8 @@ def test_animate_renders_moving_frames_and_control_images():
     assert 0.005 < dark.mean() < 0.2  # line art: some lines, mostly white
 
 
-ROOT = datasets.external_data_dir()
-
-
-@pytest.mark.skipif(ROOT is None, reason="external data folder (../shared/data) not available")
-@pytest.mark.parametrize("name", ["char1", "char2", "char3", "char4", "char5", "char6"])
-def test_pipeline_on_real_drawings(name):
+@pytest.mark.parametrize("name", datasets.ANIMATED_DRAWINGS)
+def test_pipeline_on_real_drawings(real_data, name):
     """Every AnimatedDrawings character: mask → Triangle mesh → wind + pinned feet → frames."""
     d = datasets.animated_drawing(name)
     H, W = d.image.shape[:2]
