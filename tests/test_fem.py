@@ -210,3 +210,22 @@ def test_stable_time_step_scales_with_mesh_and_stiffness():
     dt1 = fem.stable_time_step(X, tris, 100.0, 0.3, 1.0)
     assert fem.stable_time_step(2 * X, tris, 100.0, 0.3, 1.0) == pytest.approx(2 * dt1)
     assert fem.stable_time_step(X, tris, 400.0, 0.3, 1.0) == pytest.approx(dt1 / 2)
+
+
+def test_stiffness_matrix_is_force_derivative_and_symmetric():
+    X, tris = square_mesh(3)
+    mu, lam = fem.lame_parameters(100.0, 0.3)
+    x = X @ np.array([[1.1, 0.2], [-0.1, 0.9]]).T + 0.05 * RNG.normal(size=X.shape)
+    K = fem.elastic_stiffness(x, X, tris, mu, lam).toarray()
+    h = 1e-6
+    K_fd = np.zeros_like(K)
+    for idx in range(2 * len(X)):
+        e = np.zeros(2 * len(X))
+        e[idx] = h
+        fp = fem.elastic_forces(x + e.reshape(-1, 2), X, tris, mu, lam).ravel()
+        fm = fem.elastic_forces(x - e.reshape(-1, 2), X, tris, mu, lam).ravel()
+        K_fd[:, idx] = (fp - fm) / (2 * h)
+    np.testing.assert_allclose(K, K_fd, atol=1e-4 * np.abs(K).max())
+    np.testing.assert_allclose(K, K.T, atol=1e-10 * np.abs(K).max())  # Hessian of an energy
+    t = np.tile([1.0, -2.0], len(X))  # translations are in its null space
+    np.testing.assert_allclose(K @ t, 0, atol=1e-9)
