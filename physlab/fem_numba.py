@@ -1,28 +1,33 @@
 """Optional compiled Fixed Corotated FEM forces (numba): :class:`CorotatedFEMNumba`.
 
 Same model, constructor and ``forces(x)`` as :class:`physlab.fem.CorotatedFEM` (PhysAnimator
-supp. Eqs. 4–6, Fixed Corotated stress Eq. 5), evaluated by two multi-threaded numba kernels
-instead of numpy ufuncs:
+supp. Eqs. 4–6, Fixed Corotated stress Eq. 5), evaluated by two numba kernels instead of
+numpy ufuncs:
 
 1. a ``prange`` over triangles computes ``F = Ds Dm^-1`` (Eq. 6), the polar rotation (closed
-   2×2 form ``θ = atan2(F10 - F01, F00 + F11)``, written with ``hypot`` as in
-   :class:`~physlab.fem.CorotatedFEM`), ``V P`` (Eq. 5) and the three corner forces
-   ``[f1, f2] = -V P Dm^-T``, ``f0 = -(f1 + f2)`` (Eq. 4) into a (3T, 2) buffer, row
-   ``k T + t`` for corner ``k`` of triangle ``t``;
+   2×2 form ``θ = atan2(F10 - F01, F00 + F11)``: ``cos θ, sin θ = (F00 + F11, F10 - F01) / r``),
+   ``V P`` (Eq. 5) and the three corner forces ``[f1, f2] = -V P Dm^-T``, ``f0 = -(f1 + f2)``
+   (Eq. 4) into a (3T, 2) buffer, row ``k T + t`` for corner ``k`` of triangle ``t``;
 2. a ``prange`` over *vertices* sums the rows of the triangles around each vertex, using a
    vertex → (corner, triangle) adjacency in CSR form built once in the constructor.
 
-Step 2 is a gather, not a scatter, so no two threads write to the same vertex (no atomics,
-no per-thread copies) and every vertex sums its contributions in one fixed order: the result
-does not depend on the number of threads. That order is the order in which
-``np.bincount`` visits them in :meth:`CorotatedFEM.forces` (corner 0 of every triangle, then
+Step 2 is a gather, not a scatter: no two threads write to the same vertex (no atomics, no
+per-thread copies), and every vertex sums its contributions in one fixed order, so the
+result does not depend on the number of threads. That order is the one in which
+``np.bincount`` adds them in :meth:`CorotatedFEM.forces` (corner 0 of every triangle, then
 corner 1, then corner 2), and the per-triangle arithmetic follows the same operation order
-with ``fastmath=False``, so both agree to rounding (in practice bit for bit).
+(``fastmath=False``). The one difference: ``r = sqrt(c² + s²)`` instead of ``np.hypot``
+(half the cost of the whole triangle kernel; ``hypot`` is kept for ``r < 1e-150``, where the
+squares would underflow), so the two classes agree to a few ulps (≈ 1e-16 relative).
 
-numba is an optional dependency: importing this module never imports numba. Constructing a
-:class:`CorotatedFEMNumba` compiles the kernels on first use (a few seconds; ``cache=True``
-keeps the machine code in ``__pycache__`` for later processes) and raises ImportError with
-an explanation when numba is not installed. :func:`numba_available` tells beforehand.
+Meshes of fewer than :data:`PARALLEL_MIN_TRIANGLES` triangles use single-threaded builds of
+the same kernels (see :class:`CorotatedFEMNumba`).
+
+numba is an optional dependency: importing this module never imports numba. The first
+:class:`CorotatedFEMNumba` of a process compiles the kernels (≈ 2 s; ``cache=True`` keeps
+the machine code in ``physlab/__pycache__``, so later processes load it in ≈ 0.3 s) and
+raises ImportError with an explanation when numba is not installed;
+:func:`numba_available` tells beforehand.
 """
 from __future__ import annotations
 
@@ -32,13 +37,17 @@ import numpy as np
 
 from physlab.fem import CorotatedFEM
 
-__all__ = ["CorotatedFEMNumba", "numba_available", "compile_kernels", "vertex_adjacency"]
+__all__ = ["CorotatedFEMNumba", "numba_available", "compile_kernels", "vertex_adjacency",
+           "PARALLEL_MIN_TRIANGLES"]
 
 # ``prange`` is rebound to ``numba.prange`` by :func:`compile_kernels` before the kernels are
 # compiled; until then (and without numba) the kernels below are plain, slow Python.
 prange = range
 
-_KERNELS = None  # (triangle kernel, gather kernel) once compiled
+_KERNELS = None  # {"parallel": (corner, gather), "serial": (corner, gather)} once compiled
+
+#: :class:`CorotatedFEMNumba` runs its multi-threaded kernels from this many triangles on.
+PARALLEL_MIN_TRIANGLES = 5_000
 
 
 def numba_available():
@@ -113,9 +122,22 @@ def _gather(ptr, adj, W, f):
         f[v, 1] = sy
 
 
+def _renamed(func, suffix):
+    """A copy of ``func`` under another name, so that numba caches its second compilation
+    (other flags) in files of its own."""
+    import types
+
+    g = types.FunctionType(func.__code__, func.__globals__, func.__name__ + suffix,
+                           func.__defaults__, func.__closure__)
+    g.__qualname__ = func.__qualname__ + suffix
+    g.__doc__ = func.__doc__
+    return g
+
+
 def compile_kernels():
-    """Compile (or load from numba's cache) the kernels; returns them. Raises ImportError
-    with an explanation when numba is missing. Called by :class:`CorotatedFEMNumba`."""
+    """Compile (or load from numba's cache) the kernels and return them as a dict
+    ``{"parallel": (corner_forces, gather), "serial": (corner_forces, gather)}``. Raises
+    ImportError with an explanation when numba is missing. Called by :class:`CorotatedFEMNumba`."""
     global _KERNELS, prange
     if _KERNELS is None:
         try:
@@ -127,7 +149,7 @@ def compile_kernels():
                 "with numpy alone") from err
         from numba import types
 
-        prange = numba.prange
+        prange = numba.prange  # serial builds (parallel=False) treat it as range
 
         def arr(dtype, ndim, readonly=True):
             return types.Array(dtype, ndim, "C", readonly=readonly)
@@ -138,9 +160,14 @@ def compile_kernels():
         corner_sig = types.void(arr(f8, 2), *[arr(i8, 1)] * 3, *[arr(f8, 1)] * 6,
                                 arr(f8, 2, readonly=False))
         gather_sig = types.void(arr(i8, 1), arr(i8, 1), arr(f8, 2), arr(f8, 2, readonly=False))
-        opts = dict(parallel=True, cache=True, fastmath=False, nogil=True)
-        _KERNELS = (numba.njit(corner_sig, **opts)(_corner_forces),
-                    numba.njit(gather_sig, **opts)(_gather))
+        kernels = {}
+        for flavour, parallel in (("parallel", True), ("serial", False)):
+            opts = dict(parallel=parallel, cache=True, fastmath=False, nogil=True)
+            suffix = "" if parallel else "_serial"
+            kernels[flavour] = (
+                numba.njit(corner_sig, **opts)(_renamed(_corner_forces, suffix)),
+                numba.njit(gather_sig, **opts)(_renamed(_gather, suffix)))
+        _KERNELS = kernels
     return _KERNELS
 
 
@@ -164,14 +191,24 @@ class CorotatedFEMNumba(CorotatedFEM):
     same results to rounding; ``energy`` and ``deformation_gradients`` are inherited. The
     first construction in a process compiles the kernels, or loads them from numba's cache.
     Raises ImportError when numba is not installed.
+
+    ``parallel`` (keyword only): ``None`` (default) runs the multi-threaded kernels from
+    :data:`PARALLEL_MIN_TRIANGLES` triangles on and the single-threaded ones below;
+    ``True`` / ``False`` force either. Both give identical results. Small meshes stay
+    single-threaded because a parallel region waits for its slowest thread: on a machine
+    whose other cores are busy, a 2,000-triangle evaluation that takes 0.03 ms on one
+    thread was measured at several milliseconds with two.
     """
 
-    def __init__(self, X, tris, mu, lam):
-        corner_forces, gather = compile_kernels()
+    def __init__(self, X, tris, mu, lam, *, parallel=None):
+        kernels = compile_kernels()
         super().__init__(X, tris, mu, lam)
-        self._corner_forces, self._gather = corner_forces, gather
-        Dm_inv = self.Dm_inv
         T = len(self.V)
+        if parallel is None:
+            parallel = T >= PARALLEL_MIN_TRIANGLES
+        self.parallel = bool(parallel)
+        self._corner_forces, self._gather = kernels["parallel" if self.parallel else "serial"]
+        Dm_inv = self.Dm_inv
         self._Bc = tuple(np.ascontiguousarray(Dm_inv[:, i, j]) for i in range(2) for j in range(2))
         self._muVc = np.ascontiguousarray(2.0 * self.mu * self.V)
         self._lamVc = np.ascontiguousarray(self.lam * self.V)
@@ -181,15 +218,16 @@ class CorotatedFEMNumba(CorotatedFEM):
         self._W = np.empty((3 * T, 2))
 
     def forces(self, x, out=None):
-        """Elastic forces ``-∂E/∂x`` (n, 2), Eqs. (4–6). ``out``: optional (n, 2) float64
-        C-contiguous array to write into (and return)."""
+        """Elastic forces ``-∂E/∂x`` (n, 2), Eqs. (4–6). ``out``: optional writeable
+        C-contiguous float64 (n, 2) array to write into (and return)."""
         x = np.ascontiguousarray(x, dtype=np.float64)
         if x.shape != (self.n, 2):
             raise ValueError(f"x must have shape ({self.n}, 2), got {x.shape}")
         if out is None:
             out = np.empty((self.n, 2))
-        elif (out.shape != (self.n, 2) or out.dtype != np.float64
-              or not out.flags.c_contiguous or not out.flags.writeable):
+        elif (not isinstance(out, np.ndarray) or out.shape != (self.n, 2)
+              or out.dtype != np.float64 or not out.flags.c_contiguous
+              or not out.flags.writeable):
             raise ValueError(f"out must be a writeable C-contiguous float64 ({self.n}, 2) array")
         i0, i1, i2 = self._tri_cols
         b00, b01, b10, b11 = self._Bc

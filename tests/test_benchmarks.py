@@ -5,6 +5,19 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 
 
+def test_bench_fem_quick_runs_and_matches_reference():
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    try:
+        import bench_fem
+    finally:
+        sys.path.pop(0)
+    out = bench_fem.main(["--quick"])
+    assert out["sizes"] and out["pipeline"] is not None
+    for size in out["sizes"]:
+        for row in size["rows"]:
+            assert row["finite"] and row["rel_df"] < 1e-10, row["name"]
+
+
 def test_bench_springs_quick_runs_and_matches_reference(capsys):
     sys.path.insert(0, str(ROOT / "benchmarks"))
     try:
