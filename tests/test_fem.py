@@ -172,6 +172,9 @@ def test_reference_number_uniaxial_stretch():
 
 
 def test_lumped_masses_sum_to_rho_area():
+    # hand case: two right triangles of area 1/2 sharing the diagonal (0, 2) of the unit square
+    m = fem.lumped_masses(np.array([[0, 0], [1, 0], [1, 1], [0, 1.0]]), np.array([[0, 1, 2], [0, 2, 3]]), 6.0)
+    np.testing.assert_allclose(m, [2.0, 1.0, 2.0, 1.0])  # ρ V / 3 = 1 per triangle corner
     X, tris = square_mesh(4)
     m = fem.lumped_masses(X * 2.0, tris, rho=3.0)
     assert m.sum() == pytest.approx(3.0 * 4.0)
@@ -208,6 +211,14 @@ def test_inverted_triangle_recovers_orientation():
 def test_stable_time_step_scales_with_mesh_and_stiffness():
     X, tris = square_mesh(4)
     dt1 = fem.stable_time_step(X, tris, 100.0, 0.3, 1.0)
+    # and it is stable: undamped semi-implicit Euler at the estimate stays bounded
+    model = fem.CorotatedFEM(X, tris, *fem.lame_parameters(100.0, 0.3))
+    m = fem.lumped_masses(X, tris, 1.0)
+    x, v = X + 0.01 * RNG.normal(size=X.shape), np.zeros_like(X)
+    for _ in range(3000):
+        v += dt1 * model.forces(x) / m[:, None]
+        x += dt1 * v
+    assert np.abs(x - X).max() < 0.1
     assert fem.stable_time_step(2 * X, tris, 100.0, 0.3, 1.0) == pytest.approx(2 * dt1)
     assert fem.stable_time_step(X, tris, 400.0, 0.3, 1.0) == pytest.approx(dt1 / 2)
 

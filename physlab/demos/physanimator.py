@@ -62,14 +62,14 @@ def animate(scene, duration=2.0, fps=24, dt=1e-3, control=True, supersample=2, p
     anim = pa.simulate(scene, duration, dt=dt, fps=fps, progress=progress)
     textures, X_list = [], []
     for b in scene.bodies:
-        if b.texture is None:  # a flat grey body with a dark outline-free look
-            lo, hi = np.floor(b.mesh.X.min(0)).astype(int), np.ceil(b.mesh.X.max(0)).astype(int)
-            tex = np.zeros((hi[1] + 2, hi[0] + 2, 4), np.uint8)
-            tex[...] = (150, 150, 160, 255)
-            textures.append(tex)
+        if b.texture is None:  # a flat grey texture covering the mesh's bounding box
+            lo = np.floor(b.mesh.X.min(0)) - 1
+            span = np.ceil(b.mesh.X.max(0) - lo).astype(int) + 2
+            textures.append(np.full((span[1], span[0], 4), (150, 150, 160, 255), np.uint8))
+            X_list.append(b.mesh.X - lo)
         else:
             textures.append(b.texture)
-        X_list.append(b.mesh.X)
+            X_list.append(b.mesh.X)
     W, H = scene.size
     renderer = WarpRenderer(textures, X_list, [b.mesh.tris for b in scene.bodies], (H, W),
                             depth=[b.depth for b in scene.bodies], background=background,

@@ -50,16 +50,18 @@ def resolve_half_planes(x, v, planes, restitution=0.2, friction=0.3):
     return hits
 
 
-def points_in_triangles(p, a, b, c, eps=1e-12):
+def points_in_triangles(p, a, b, c, eps=1e-9):
     """For points ``p`` (k, 2) and triangles with corners ``a, b, c`` (T, 2): a (k, T) bool
-    matrix, True where the point lies inside (either orientation)."""
+    matrix, True where the point lies inside or on the border (barycentric coordinates
+    ``>= -eps``; either orientation; degenerate triangles contain nothing)."""
     v0, v1 = b - a, c - a  # (T, 2)
     v2 = p[:, None, :] - a[None]  # (k, T, 2)
     den = v0[:, 0] * v1[:, 1] - v1[:, 0] * v0[:, 1]  # (T,)
-    safe = np.where(np.abs(den) > eps, den, np.inf)
+    safe = np.where(np.abs(den) > 1e-12, den, np.inf)
     beta = (v2[..., 0] * v1[:, 1] - v1[:, 0] * v2[..., 1]) / safe
     gamma = (v0[:, 0] * v2[..., 1] - v2[..., 0] * v0[:, 1]) / safe
-    return (beta > 0) & (gamma > 0) & (beta + gamma < 1)
+    ok = np.isfinite(safe)[None, :]
+    return ok & (beta >= -eps) & (gamma >= -eps) & (beta + gamma <= 1 + eps)
 
 
 def closest_points_on_segments(p, s0, s1):
@@ -76,12 +78,22 @@ def closest_points_on_segments(p, s0, s1):
     return q[k, j], j, u[k, j], dist[k, j]
 
 
-def resolve_body_contacts(x, v, m, bodies, restitution=0.2, friction=0.3, margin=0.25):
+def resolve_body_contacts(x, v, inv_m, bodies, restitution=0.2, friction=0.3, margin=0.25,
+                          iterations=10, x_prev=None):
     """Push boundary vertices of each body out of every other body; update ``x``, ``v`` in place.
 
-    ``bodies``: list of dicts with ``idx`` (n_b,) global vertex indices, ``tris`` (T_b, 3)
-    global triangle indices, ``boundary`` (B_b,) global boundary vertex indices and
-    ``edges`` (E_b, 2) global boundary edges. Returns the number of contacts."""
+    ``inv_m`` (n,): inverse vertex masses, 0 for kinematic (pinned or rigged) vertices, which
+    then never move. ``bodies``: list of dicts with ``idx`` (n_b,) global vertex indices,
+    ``tris`` (T_b, 3) and ``edges`` (E_b, 2) global indices, ``boundary`` (B_b,) global
+    boundary vertex indices.
+
+    A penetrating vertex of A is sent back to the boundary edge of B it crossed during the
+    step (from ``x_prev``, the positions before the step; so a fast vertex is not pushed out
+    through B's far side), or to the closest boundary point when that is unknown; positions
+    and impulses are split by inverse mass; the velocity response is
+    iterated ``iterations`` times, averaging over the contacts that share a vertex of B, so
+    that many contacts on one edge do not add up to an overshoot. Returns the number of contacts.
+    """
     hits = 0
     boxes = [(x[b["idx"]].min(0), x[b["idx"]].max(0)) for b in bodies]
     for ia, A in enumerate(bodies):
@@ -91,7 +103,7 @@ def resolve_body_contacts(x, v, m, bodies, restitution=0.2, friction=0.3, margin
             (alo, ahi), (blo, bhi) = boxes[ia], boxes[ib]
             if np.any(ahi < blo) or np.any(bhi < alo):
                 continue  # bounding boxes apart
-            cand = A["boundary"]
+            cand = A["idx"]  # all vertices: a fast impact can fold the boundary inwards
             xa = x[cand]
             near = np.all((xa >= blo) & (xa <= bhi), axis=1)
             if not near.any():
@@ -103,28 +115,59 @@ def resolve_body_contacts(x, v, m, bodies, restitution=0.2, friction=0.3, margin
                 continue
             cand, xa = cand[inside], xa[inside]
             e = B["edges"]
-            q, j, u, dist = closest_points_on_segments(xa, x[e[:, 0]], x[e[:, 1]])
-            nrm = (q - xa) / np.maximum(dist, 1e-12)[:, None]  # outward from B at the contact
+            s0, s1 = x[e[:, 0]], x[e[:, 1]]
+            # closest boundary point among those against the motion relative to B
+            d = s1 - s0
+            L2 = np.maximum(np.einsum("ed,ed->e", d, d), 1e-24)
+            uu = np.clip(np.einsum("ked,ed->ke", xa[:, None, :] - s0[None], d) / L2, 0.0, 1.0)
+            qq = s0[None] + uu[..., None] * d[None]  # (k, E, 2)
+            dd = np.linalg.norm(qq - xa[:, None, :], axis=2)
+            k = np.arange(len(cand))
+            j = np.argmin(dd, axis=1)  # default: the closest boundary point
+            if x_prev is not None:  # better: the edge the vertex crossed on its way in
+                p0 = x_prev[cand]
+                r = xa - p0  # (k, 2) motion during the step
+                cross = lambda a, b: a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+                den = cross(r[:, None, :], d[None])  # (k, E)
+                ok = np.abs(den) > 1e-12
+                sden = np.where(ok, den, 1.0)
+                w = s0[None] - p0[:, None, :]
+                tt, ue = cross(w, d[None]) / sden, cross(w, r[:, None, :]) / sden
+                hit = ok & (tt >= 0) & (tt <= 1) & (ue >= 0) & (ue <= 1)
+                first = np.argmin(np.where(hit, tt, np.inf), axis=1)
+                j = np.where(hit.any(1), first, j)
+            q, u, dist = qq[k, j], uu[k, j], dd[k, j]
+            # outward normal: towards the exit point, or the edge's own outward normal when the
+            # vertex sits on the edge (boundary edges run with the interior on their left)
+            de = d[j] / np.sqrt(L2[j])[:, None]
+            edge_out = np.stack([de[:, 1], -de[:, 0]], 1)
+            nrm = np.where((dist > 1e-9)[:, None], (q - xa) / np.maximum(dist, 1e-12)[:, None], edge_out)
             e0, e1 = e[j, 0], e[j, 1]
-            # velocity of the contact point on B's edge and the effective masses
             w0, w1 = 1 - u, u
-            vb = w0[:, None] * v[e0] + w1[:, None] * v[e1]
-            ma = m[cand]
-            mb = 1.0 / np.maximum(w0**2 / m[e0] + w1**2 / m[e1], 1e-300)
-            share_a = mb / (ma + mb)
-            # positions: split the correction by mass too, so heavy bodies move less
+            ia_ = inv_m[cand]
+            ib_ = w0**2 * inv_m[e0] + w1**2 * inv_m[e1]  # inverse effective mass of B's point
+            tot = ia_ + ib_
+            movable = tot > 0
+            share_a = np.where(movable, ia_ / np.where(movable, tot, 1.0), 0.0)
+            # positions: A's vertex moves share_a of the way, B's contact point the rest
             corr = (dist + margin)[:, None] * nrm
             x[cand] += share_a[:, None] * corr
-            # B's contact point moves by -(1 - share_a) corr: edge vertex i by w_i / Σw² of it
-            back = ((1 - share_a) / np.maximum(w0**2 + w1**2, 1e-12))[:, None] * corr
-            np.add.at(x, e0, -w0[:, None] * back)
-            np.add.at(x, e1, -w1[:, None] * back)
-            # impulse I on A's vertex and -I on B's contact point (Δv_i = -w_i I / m_i there),
-            # sized so the relative velocity changes by dv: Δv_A = I / m_A = share_a dv
-            dv = _respond(v[cand] - vb, nrm, restitution, friction)
-            v[cand] += share_a[:, None] * dv
-            impulse = (ma * share_a)[:, None] * dv
-            np.add.at(v, e0, -(w0 / m[e0])[:, None] * impulse)
-            np.add.at(v, e1, -(w1 / m[e1])[:, None] * impulse)
+            wb = np.where(movable, (1 - share_a) / np.maximum(w0**2 + w1**2, 1e-12), 0.0)
+            wb0 = np.where(inv_m[e0] > 0, w0 * wb, 0.0)
+            wb1 = np.where(inv_m[e1] > 0, w1 * wb, 0.0)
+            np.add.at(x, e0, -wb0[:, None] * corr)
+            np.add.at(x, e1, -wb1[:, None] * corr)
+            # velocities: impulse I = dv / (1/m_A + 1/m_B) on A, -I at B's contact point
+            # contacts sharing a vertex of B each apply 1/count of their impulse per sweep
+            # (Jacobi averaging; momentum is conserved exactly since A and B get ±I)
+            count = np.bincount(np.concatenate([e0, e1]), minlength=len(v)).astype(float)
+            share = 1.0 / np.maximum(count[e0], count[e1])
+            for _ in range(iterations):
+                vb = w0[:, None] * v[e0] + w1[:, None] * v[e1]
+                dv = _respond(v[cand] - vb, nrm, restitution, friction)
+                I = (share * np.where(movable, 1.0 / np.where(movable, tot, 1.0), 0.0))[:, None] * dv
+                v[cand] += ia_[:, None] * I
+                np.add.at(v, e0, -(w0 * inv_m[e0])[:, None] * I)
+                np.add.at(v, e1, -(w1 * inv_m[e1])[:, None] * I)
             hits += len(cand)
     return hits

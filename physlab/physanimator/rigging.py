@@ -37,7 +37,9 @@ class FixedRig:
         """Indices (k,) of the rigged vertices of a body with rest positions ``X`` (n, 2)."""
         if self.vertices is not None:
             idx = np.unique(np.asarray(self.vertices, dtype=int))
-            if idx.size and (idx.min() < 0 or idx.max() >= len(X)):
+            if idx.size == 0:
+                raise ValueError("a rig with an empty vertex list selects nothing")
+            if idx.min() < 0 or idx.max() >= len(X):
                 raise ValueError(f"rig vertices outside 0..{len(X) - 1}")
             return idx
         if self.center is None or self.radius is None:
@@ -53,8 +55,9 @@ class FixedRig:
         return np.zeros(2), np.zeros(2)
 
     def to_dict(self):
-        return {"type": type(self).__name__, **{k: (list(v) if isinstance(v, (tuple, np.ndarray)) else v)
-                                                 for k, v in self.__dict__.items()}}
+        return {"type": type(self).__name__,
+                **{k: (np.asarray(v).tolist() if isinstance(v, (tuple, list, np.ndarray)) else v)
+                   for k, v in self.__dict__.items()}}
 
 
 @dataclass
@@ -65,6 +68,10 @@ class WavyRig(FixedRig):
     amplitude: float = 20.0
     frequency: float = 2 * np.pi
     direction: tuple = (1.0, 0.0)
+
+    def __post_init__(self):
+        if not np.linalg.norm(np.asarray(self.direction, dtype=float)) > 0:
+            raise ValueError(f"wavy rig direction must be a non-zero vector, got {self.direction}")
 
     def offset(self, t):
         d = np.asarray(self.direction, dtype=float)

@@ -36,6 +36,15 @@ class Material:
             raise ValueError(f"invalid material {self}: need E > 0, rho > 0, -1 < nu < 0.5")
 
 
+def _jsonable(obj):
+    """numpy scalars and arrays in JSON (``json.dumps(default=...)``)."""
+    if isinstance(obj, np.generic):
+        return obj.item()
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    raise TypeError(f"{type(obj).__name__} is not JSON serializable")
+
+
 def _encode_png(image):
     import imageio.v3 as iio
 
@@ -148,7 +157,7 @@ class Scene:
 
     def to_json(self, path=None):
         """The scene as JSON text (textures as base64 PNG); also written to ``path`` if given."""
-        text = json.dumps(self.to_dict())
+        text = json.dumps(self.to_dict(), default=_jsonable)
         if path is not None:
             import os
 
@@ -175,7 +184,9 @@ class Scene:
                     r[key] = tuple(r[key])
             rigs.append({"FixedRig": FixedRig, "WavyRig": WavyRig}[kind](**r))
         return cls(bodies=[Body.from_dict(b) for b in d["bodies"]],
-                   strokes=[EnergyStroke(**s) for s in d["strokes"]], rigs=rigs,
+                   strokes=[EnergyStroke(**{**s, "direction": None if s.get("direction") is None
+                                            else tuple(s["direction"])}) for s in d["strokes"]],
+                   rigs=rigs,
                    gravity=tuple(d["gravity"]), ground=d["ground"],
                    walls=None if d["walls"] is None else tuple(d["walls"]),
                    collisions=d["collisions"], restitution=d["restitution"],

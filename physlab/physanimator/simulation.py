@@ -76,6 +76,12 @@ class SceneSystem:
                                             edges=b.mesh.boundary_edges() + lo))
         self.planes = scene.half_planes()
         self.contacts = 0
+        self.dt = None  # set by simulate(); lets contacts find where a vertex came in
+        # contacts treat pinned and rigged vertices as kinematic (infinite mass)
+        self.inv_mass_contact = 1.0 / self.mass
+        self.inv_mass_contact[self.fixed] = 0.0
+        for idx, _ in self.wavy:
+            self.inv_mass_contact[idx] = 0.0
 
     def body_slice(self, i):
         return slice(self.offsets[i], self.offsets[i + 1])
@@ -101,6 +107,8 @@ class SceneSystem:
 
     def project(self, t, x, v):
         """After-step constraints (in place): wavy rigs (Eq. 10), ground/walls, body contacts."""
+        # positions before the step: both integrators end with x_{k+1} = x_k + dt v_{k+1}
+        x_prev = x - self.dt * v if self.dt else None
         for idx, rig in self.wavy:
             disp, vel = rig.offset(t)
             x[idx] = self.X[idx] + disp
@@ -109,8 +117,8 @@ class SceneSystem:
         if self.planes:
             self.contacts += resolve_half_planes(x, v, self.planes, s.restitution, s.friction)
         if s.collisions and len(self.contact_bodies) > 1:
-            self.contacts += resolve_body_contacts(x, v, self.mass, self.contact_bodies,
-                                                   s.restitution, s.friction)
+            self.contacts += resolve_body_contacts(x, v, self.inv_mass_contact, self.contact_bodies,
+                                                   s.restitution, s.friction, x_prev=x_prev)
 
     def elastic_energy(self, x):
         return self.model.energy(x)
@@ -153,6 +161,7 @@ def simulate(scene, duration, dt=1e-3, fps=24, progress=True, check_dt=True,
     if not dt > 0:
         raise ValueError(f"dt must be > 0, got {dt}")
     system = SceneSystem(scene)
+    system.dt = dt
     safe = safe_time_step(scene)
     if method not in ("semi_implicit_euler", "implicit_euler"):
         raise ValueError(f"unknown method {method!r}; valid: semi_implicit_euler, implicit_euler")
@@ -161,9 +170,13 @@ def simulate(scene, duration, dt=1e-3, fps=24, progress=True, check_dt=True,
                       "(CFL: smallest triangle / wave speed); the run may blow up", stacklevel=2)
     every = max(1, int(round(1.0 / (fps * dt))))  # steps per stored frame
     n_steps = max(1, int(round(duration / (every * dt)))) * every
-    c_max = max(np.sqrt((sum(fem.lame_parameters(b.material.E, b.material.nu)[i] * (1 + i)
-                              for i in (0, 1)) / b.material.rho)) for b in scene.bodies)
-    v_limit = max(20 * c_max, 50 * float(np.hypot(*scene.size)))
+    c_max = 0.0  # fastest dilatational wave speed sqrt((λ + 2μ)/ρ) of the scene (px/s)
+    for b in scene.bodies:
+        mu, lam = fem.lame_parameters(b.material.E, b.material.nu)
+        c_max = max(c_max, float(np.sqrt((lam + 2 * mu) / b.material.rho)))
+    v0_max = max([float(np.hypot(*b.velocity)) for b in scene.bodies]
+                 + [r.amplitude * r.frequency for r in scene.rigs if isinstance(r, WavyRig)])
+    v_limit = max(20 * c_max, 50 * float(np.hypot(*scene.size)), 10 * v0_max)
 
     def project(t, x, v):
         system.project(t, x, v)

@@ -46,8 +46,11 @@ class EnergyStroke:
             raise ValueError(f"stroke points must have shape (k >= 2, 2), got {self.points.shape}")
         if self.kind not in FLOW_KINDS:
             raise ValueError(f"unknown stroke kind {self.kind!r}; valid kinds are: {', '.join(FLOW_KINDS)}")
-        if self.range <= 0 or self.speed <= 0 or self.n_particles < 1:
-            raise ValueError("stroke range and speed must be > 0 and n_particles >= 1")
+        if not (self.range > 0 and self.speed > 0 and np.isfinite(self.strength)):
+            raise ValueError("stroke range and speed must be > 0 and the strength finite")
+        if int(self.n_particles) != self.n_particles or self.n_particles < 1:
+            raise ValueError(f"n_particles must be an integer >= 1, got {self.n_particles}")
+        self.n_particles = int(self.n_particles)
         seg = np.linalg.norm(np.diff(self.points, axis=0), axis=1)
         if seg.sum() <= 0:
             raise ValueError("stroke has zero length")
