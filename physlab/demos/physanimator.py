@@ -84,7 +84,7 @@ def max_strain(anim, body=0):
     return max(max_strain_frame(anim, k, body) for k in range(anim.n_frames))
 
 
-def filmstrip(frames, n=6, controls=None, width=2.0):
+def filmstrip(frames, n=6, controls=None, width=1.6):
     """A figure with ``n`` evenly spaced frames (and their control images below)."""
     idx = np.unique(np.linspace(0, len(frames) - 1, n).round().astype(int))
     rows = 2 if controls is not None else 1
