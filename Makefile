@@ -65,7 +65,8 @@ bench: $(STAMP)
 	$(PY) benchmarks/run_all.py
 
 clean:
-	rm -rf reports .pytest_cache **/__pycache__
+	rm -rf reports .pytest_cache
+	find . -name __pycache__ -not -path "./.venv/*" -prune -exec rm -rf {} +
 
 distclean: clean
 	rm -rf $(VENV)

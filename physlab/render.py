@@ -689,15 +689,17 @@ def frames_to_html(frames, fps=24, fmt="video", crf=25, width=None):
         raise ValueError(f"fmt must be 'video' or 'gif', got {fmt!r}")
     width = int(width or f.shape[2])
     with tempfile.TemporaryDirectory() as d:
+        video = None
         if fmt == "video":
             try:
-                p = frames_to_mp4(f, Path(d) / "anim.mp4", fps=fps, crf=crf)
-                data = base64.b64encode(p.read_bytes()).decode("ascii")
-                return HTML(f'<video width="{width}" controls autoplay loop muted playsinline>'
-                            f'<source type="video/mp4" src="data:video/mp4;base64,{data}">'
-                            "</video>")
-            except (RuntimeError, OSError, ImportError):
-                pass  # no usable ffmpeg: GIF below
+                video = frames_to_mp4(f, Path(d) / "anim.mp4", fps=fps, crf=crf)
+            except (RuntimeError, OSError, ImportError):  # no usable ffmpeg: GIF below
+                video = None
+        if video is not None:
+            data = base64.b64encode(video.read_bytes()).decode("ascii")
+            return HTML(f'<video width="{width}" controls autoplay loop muted playsinline>'
+                        f'<source type="video/mp4" src="data:video/mp4;base64,{data}">'
+                        "</video>")
         p = frames_to_gif(f, Path(d) / "anim.gif", fps=fps)
         data = base64.b64encode(p.read_bytes()).decode("ascii")
         return HTML(f'<img width="{width}" src="data:image/gif;base64,{data}">')
