@@ -1,13 +1,17 @@
-"""A lesson's ipywidgets really respond in JupyterLab, driven the way a student does it.
+"""Lessons' ipywidgets really respond in JupyterLab, driven the way a student does it.
 
-Copies ``lessons/`` to a temporary directory, starts JupyterLab there (fresh Jupyter config and
-runtime dirs, announcements popup disabled, notebook windowing off), opens lesson 01 in headless
-Debian Chromium through Playwright, runs all cells from the Run menu, then moves the ``dt`` slider
-and picks another integrator in the ``method`` dropdown, checking that the figure in the
-interactive widget's output is redrawn each time and that no error shows up in the notebook.
+Each test copies ``lessons/`` to a temporary directory, starts JupyterLab there (fresh Jupyter
+config and runtime dirs, announcements popup disabled, notebook windowing off), opens one lesson in
+headless Debian Chromium through Playwright, runs all cells from the Run menu, then works the
+controls of the lesson's ``interact`` boxes, checking that the figure in the right box's output is
+redrawn (and only there) and that no error shows up anywhere in the notebook:
 
-Screenshots of the widget (and the decoded PNGs it displayed) go to pytest's ``tmp_path``; their
-paths are printed (``-s``) and quoted in failure messages.
+* lesson 01: move the ``dt`` slider and pick another integrator in the ``method`` dropdown;
+* lesson 04: two boxes; move ``stretch y`` in the first (element demo), then ``E`` in the last
+  (ball push), whose redraw must leave the first box's figure alone.
+
+Screenshots of the widget boxes (and the decoded PNGs they displayed) go to pytest's ``tmp_path``;
+their paths are printed (``-s``) and quoted in failure messages.
 
 Needs ``/usr/bin/chromium`` (``make browser``; override with ``PHYSLAB_E2E_CHROMIUM``) and the
 ``playwright`` Python package; never ``playwright install``. Skipped when either is missing.
@@ -31,13 +35,14 @@ import pytest
 
 REPO = Path(__file__).resolve().parents[2]
 LESSONS = REPO / "lessons"
-LESSON = "01_odes_and_explicit_euler.ipynb"
+LESSON01 = "01_odes_and_explicit_euler.ipynb"
+LESSON04 = "04_fixed_corotated_fem.ipynb"
 CHROMIUM = os.environ.get("PHYSLAB_E2E_CHROMIUM", "/usr/bin/chromium")
 CHROMIUM_ARGS = ["--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage", "--disable-quic",
                  "--no-first-run", "--disable-background-networking", "--disable-component-update",
                  "--disable-sync"]
 
-# Timeouts (seconds). A whole run takes ~15-25 s on these machines.
+# Timeouts (seconds). A whole test takes ~15-30 s on these machines.
 SERVER_START_TIMEOUT = 60
 PAGE_TIMEOUT = 60
 RUN_ALL_TIMEOUT = 120
@@ -48,6 +53,10 @@ SETTLE_SECONDS = 1.0  # the widget's image must stay unchanged this long (with t
 STDERR_SEL = '.jp-OutputArea-output[data-mime-type="application/vnd.jupyter.stderr"]'
 WIDGET_ERROR_TEXT = "Error displaying widget"
 KERNEL_IDLE = re.compile(r"\| Idle\s*$")
+# Boxes drawn by this kernel. Before Run All every box already on the page is marked stale, so
+# a redraw of the widget state saved in the notebook is never mistaken for a live widget.
+STALE_ATTR = "data-e2e-stale"
+LIVE_BOX_SEL = f".widget-interact:not([{STALE_ATTR}])"
 
 pytestmark = [pytest.mark.e2e]
 
@@ -243,7 +252,144 @@ def _check_single_figure(cell, box, shot):
         f"widget and {n_cell} in the whole cell output; see {shot}")
 
 
-# --------------------------------------------------------------------------- the test
+def _labels(box):
+    return [t.strip() for t in box.locator(".widget-label").all_inner_texts()]
+
+
+def _slider(box, label):
+    """The slider of ``box`` whose description is exactly ``label`` (two boxes may both have a
+    "ν" slider, and "E" is a substring of other labels: match the whole label, inside one box)."""
+    exact = re.compile(rf"^\s*{re.escape(label)}\s*$")
+    return box.locator(".widget-slider").filter(
+        has=box.page.locator(".widget-label", has_text=exact))
+
+
+def _readout(slider):
+    # d3-format writes negative numbers with U+2212 MINUS SIGN ("−0.500").
+    return float(slider.locator(".widget-readout").inner_text().strip().replace("\u2212", "-"))
+
+
+def _press_slider(box, label, key, presses, shot):
+    """Focus the handle of the slider labelled ``label`` and press ``key`` ``presses`` times
+    (continuous_update=False, so each key press is one committed change). Returns the slider and
+    its readout before the presses."""
+    slider = _slider(box, label)
+    assert slider.count() == 1, (
+        f"no single slider labelled {label!r} in the widget (its controls: {_labels(box)}); "
+        f"see {shot}")
+    before = _readout(slider)
+    handle = slider.locator(".noUi-handle")
+    handle.focus()
+    for _ in range(presses):
+        handle.press(key)
+    return slider, before
+
+
+# --------------------------------------------------------------------------- driving a lesson
+def _open_and_run_all(page, lab, lesson, n_boxes, t0):
+    """Open ``lesson``, wait for its kernel, run all cells from the Run menu and wait until every
+    cell has run and ``n_boxes`` live interactive widgets are on the page, one per code cell.
+    Returns ``[(cell, box), ...]`` in notebook order (each box located inside its cell)."""
+    page.goto(f"{lab.url}/lab/tree/{lesson}?token={lab.token}", wait_until="domcontentloaded")
+    page.locator(".jp-Notebook .jp-Cell").first.wait_for(timeout=PAGE_TIMEOUT * 1000)
+    # The toolbar can say idle while the kernel is still starting: wait for the status bar.
+    _wait_until(page, lambda: _kernel_idle(page), PAGE_TIMEOUT,
+                lambda: f"the status bar to show the kernel idle (it shows "
+                        f"{_kernel_status(page)!r})")
+    print(f"[e2e] {lesson} open, kernel idle after {time.monotonic() - t0:.1f} s")
+
+    # Should JupyterLab ever redraw the saved widget state, don't mistake it for the live widget.
+    page.evaluate(f"document.querySelectorAll('.widget-interact')"
+                  f".forEach(e => e.setAttribute('{STALE_ATTR}', '1'))")
+    page.locator(".lm-MenuBar-item", has_text=re.compile(r"^\s*Run\s*$")).click()
+    page.locator(".lm-Menu-item", has_text=re.compile(r"^\s*Run All Cells")).first.click()
+
+    boxes = page.locator(LIVE_BOX_SEL)
+    prompts = page.locator(".jp-InputPrompt")
+
+    def all_ran():
+        # Run All marks every code cell "[*]" at once, so once a live box exists (it can only
+        # come from this run) no "[*]" left means the whole notebook has been executed.
+        return (boxes.count() == n_boxes
+                and not any("*" in t for t in prompts.all_inner_texts()))
+
+    _wait_until(page, lambda: _check_errors_then(page, all_ran, "during Run All"),
+                RUN_ALL_TIMEOUT,
+                lambda: f"all cells to run and {n_boxes} interactive widget(s) (.widget-interact) "
+                        f"to render after Run All Cells (found {boxes.count()}; prompts "
+                        f"{[t for t in prompts.all_inner_texts() if t.strip()]})")
+    cells = page.locator(".jp-CodeCell").filter(has=page.locator(LIVE_BOX_SEL))
+    assert cells.count() == n_boxes, (
+        f"expected {n_boxes} code cells holding one interactive widget each, found "
+        f"{cells.count()} cells holding {boxes.count()} widgets")
+    print(f"[e2e] all cells ran, {n_boxes} widget(s) rendered after {time.monotonic() - t0:.1f} s")
+    return [(cells.nth(i), cells.nth(i).locator(LIVE_BOX_SEL)) for i in range(n_boxes)]
+
+
+def _initial_figure(page, cell, box, shots_dir, name, t0, min_size=(200, 150)):
+    """Wait for the first figure of a freshly rendered box; check it is one loaded PNG of at least
+    ``min_size`` px. Returns ``(src, screenshot path)``."""
+    try:
+        src = _wait_new_image(page, box, None, f"Run All Cells ({name})")
+    except AssertionError as exc:
+        if _img_src(box) is not None:
+            raise
+        shot = shots_dir / f"{name}_no_figure.png"
+        box.scroll_into_view_if_needed()
+        box.screenshot(path=str(shot))
+        out = box.locator(".widget-output")
+        raise AssertionError(
+            f"the interactive widget rendered (its controls: {_labels(box)}) but its output area "
+            f"shows no figure (kernel status {_kernel_status(page)!r}; output area holds "
+            f"{out.locator('.jp-OutputArea-child').count()} outputs, text "
+            f"{out.inner_text()[:500]!r}); see {shot}") from exc
+    shot = _snapshot(box, shots_dir, name, src)
+    _check_single_figure(cell, box, shot)
+    _, (w, h) = _png_size(src)
+    assert w >= min_size[0] and h >= min_size[1], (
+        f"widget figure is only {w}x{h} px (expected at least {min_size}); see {shot}")
+    assert box.locator(".widget-output img").evaluate("img => img.naturalWidth") > 0, (
+        f"the widget figure did not load in the browser; see {shot}")
+    print(f"[e2e] {name}: {w}x{h} px figure drawn after {time.monotonic() - t0:.1f} s")
+    return src, shot
+
+
+def _in_browser(lab, tmp_path, drive):
+    """Launch headless Chromium, run ``drive(page, lab, shots_dir)``; on failure, fail with a
+    whole-page screenshot, the browser's JS errors and the server log."""
+    from playwright.sync_api import sync_playwright
+
+    shots_dir = tmp_path / "screenshots"
+    shots_dir.mkdir()
+    browser_errors: list[str] = []
+    t0 = time.monotonic()
+    with sync_playwright() as pw:
+        browser = pw.chromium.launch(executable_path=CHROMIUM, headless=True, args=CHROMIUM_ARGS)
+        try:
+            page = browser.new_page(viewport={"width": 1280, "height": 900})
+            page.set_default_timeout(PAGE_TIMEOUT * 1000)
+            page.on("pageerror", lambda e: browser_errors.append(f"pageerror: {e}"))
+            page.on("console", lambda m: browser_errors.append(f"console.{m.type}: {m.text}")
+                    if m.type == "error" else None)
+            try:
+                drive(page, lab, shots_dir)
+            except Exception as exc:
+                failure_shot = shots_dir / "failure_page.png"
+                try:
+                    page.screenshot(path=str(failure_shot))
+                except Exception as shot_exc:
+                    failure_shot = f"(page screenshot failed: {shot_exc})"
+                js = "\n".join(browser_errors[-20:]) or "(none)"
+                pytest.fail(f"{type(exc).__name__}: {exc}\n\nwhole page: {failure_shot}\n"
+                            f"widget screenshots: {shots_dir}\nbrowser errors:\n{js}\n\n"
+                            f"{lab.log_tail()}", pytrace=True)
+        finally:
+            browser.close()
+    print(f"[e2e] browser part took {time.monotonic() - t0:.1f} s; "
+          f"JS errors: {browser_errors or 'none'}")
+
+
+# --------------------------------------------------------------------------- the tests
 @pytest.fixture
 def lab(tmp_path):
     if not Path(CHROMIUM).exists():
@@ -266,96 +412,18 @@ def lab(tmp_path):
 @pytest.mark.e2e
 @pytest.mark.timeout(300)
 def test_lesson01_interact_widget_redraws_figure(lab, tmp_path):
-    from playwright.sync_api import sync_playwright
+    _in_browser(lab, tmp_path, _drive_lesson01)
 
-    shots_dir = tmp_path / "screenshots"
-    shots_dir.mkdir()
-    browser_errors: list[str] = []
+
+def _drive_lesson01(page, lab, shots_dir):
     t0 = time.monotonic()
-    with sync_playwright() as pw:
-        browser = pw.chromium.launch(executable_path=CHROMIUM, headless=True, args=CHROMIUM_ARGS)
-        try:
-            page = browser.new_page(viewport={"width": 1280, "height": 900})
-            page.set_default_timeout(PAGE_TIMEOUT * 1000)
-            page.on("pageerror", lambda e: browser_errors.append(f"pageerror: {e}"))
-            page.on("console", lambda m: browser_errors.append(f"console.{m.type}: {m.text}")
-                    if m.type == "error" else None)
-            try:
-                _drive_lesson(page, lab, shots_dir)
-            except Exception as exc:
-                failure_shot = shots_dir / "failure_page.png"
-                try:
-                    page.screenshot(path=str(failure_shot))
-                except Exception as shot_exc:
-                    failure_shot = f"(page screenshot failed: {shot_exc})"
-                js = "\n".join(browser_errors[-20:]) or "(none)"
-                pytest.fail(f"{type(exc).__name__}: {exc}\n\nwhole page: {failure_shot}\n"
-                            f"widget screenshots: {shots_dir}\nbrowser errors:\n{js}\n\n"
-                            f"{lab.log_tail()}", pytrace=True)
-        finally:
-            browser.close()
-    print(f"[e2e] browser part took {time.monotonic() - t0:.1f} s; "
-          f"JS errors: {browser_errors or 'none'}")
+    [(cell, box)] = _open_and_run_all(page, lab, LESSON01, 1, t0)
+    src0, shot0 = _initial_figure(page, cell, box, shots_dir, "1_initial", t0)
 
-
-def _drive_lesson(page, lab, shots_dir):
-    t0 = time.monotonic()
-    page.goto(f"{lab.url}/lab/tree/{LESSON}?token={lab.token}", wait_until="domcontentloaded")
-    page.locator(".jp-Notebook .jp-Cell").first.wait_for(timeout=PAGE_TIMEOUT * 1000)
-    # The toolbar can say idle while the kernel is still starting: wait for the status bar.
-    _wait_until(page, lambda: _kernel_idle(page), PAGE_TIMEOUT,
-                lambda: f"the status bar to show the kernel idle (it shows "
-                        f"{_kernel_status(page)!r})")
-    print(f"[e2e] notebook open, kernel idle after {time.monotonic() - t0:.1f} s")
-
-    # Should JupyterLab ever redraw the saved widget state, don't mistake it for the live widget.
-    page.evaluate("document.querySelectorAll('.widget-interact')"
-                  ".forEach(e => e.setAttribute('data-e2e-stale', '1'))")
-    page.locator(".lm-MenuBar-item", has_text=re.compile(r"^\s*Run\s*$")).click()
-    page.locator(".lm-Menu-item", has_text=re.compile(r"^\s*Run All Cells")).first.click()
-
-    box = page.locator(".widget-interact:not([data-e2e-stale])")
-    _wait_until(page, lambda: _check_errors_then(page, lambda: box.count() == 1, "during Run All"),
-                RUN_ALL_TIMEOUT,
-                "the interactive widget (.widget-interact) to render after Run All Cells")
-    cell = page.locator(".jp-CodeCell", has=box)
-    print(f"[e2e] all cells ran, widget rendered after {time.monotonic() - t0:.1f} s")
-    try:
-        src0 = _wait_new_image(page, box, None, "Run All Cells")
-    except AssertionError as exc:
-        if _img_src(box) is not None:
-            raise
-        shot = shots_dir / "1_initial_no_figure.png"
-        box.scroll_into_view_if_needed()
-        box.screenshot(path=str(shot))
-        out = box.locator(".widget-output")
-        raise AssertionError(
-            f"the interactive widget rendered (its controls: "
-            f"{box.locator('.widget-label').all_inner_texts()}) but its output area shows no "
-            f"figure (kernel status {_kernel_status(page)!r}; output area holds "
-            f"{out.locator('.jp-OutputArea-child').count()} outputs, text "
-            f"{out.inner_text()[:500]!r}); see {shot}") from exc
-    print(f"[e2e] widget figure drawn after {time.monotonic() - t0:.1f} s")
-
-    shot0 = _snapshot(box, shots_dir, "1_initial", src0)
-    _check_single_figure(cell, box, shot0)
-    _, (w, h) = _png_size(src0)
-    assert w >= 200 and h >= 150, f"widget figure is only {w}x{h} px; see {shot0}"
-    assert box.locator(".widget-output img").evaluate("img => img.naturalWidth") > 0, (
-        f"the widget figure did not load in the browser; see {shot0}")
-
-    # 1) The dt slider: focus its handle and nudge it with the keyboard (continuous_update=False,
-    #    so each key press is one committed change).
-    dt_slider = box.locator(".widget-slider").filter(has_text="dt (s)")
-    assert dt_slider.count() == 1, f"no slider labelled 'dt (s)' in the widget; see {shot0}"
-    readout = dt_slider.locator(".widget-readout")
-    dt_before = float(readout.inner_text())
-    handle = dt_slider.locator(".noUi-handle")
-    handle.focus()
-    for _ in range(3):
-        handle.press("ArrowRight")
+    # 1) The dt slider: nudge its handle with the keyboard.
+    dt_slider, dt_before = _press_slider(box, "dt (s)", "ArrowRight", 3, shot0)
     src1 = _wait_new_image(page, box, src0, "moving the dt slider")
-    dt_after = float(readout.inner_text())
+    dt_after = _readout(dt_slider)
     shot1 = _snapshot(box, shots_dir, "2_dt_moved", src1)
     assert dt_after > dt_before, f"dt readout went {dt_before} -> {dt_after}; see {shot1}"
     assert src1 != src0, f"figure unchanged after moving dt; see {shot0} and {shot1}"
@@ -374,3 +442,61 @@ def _drive_lesson(page, lab, shots_dir):
     print(f"[e2e] method rk4: figure redrawn after {time.monotonic() - t0:.1f} s")
 
     _assert_no_errors(page, f"at the end (widget screenshots: {shot0}, {shot1}, {shot2})")
+
+
+LESSON04_ELEMENT_CONTROLS = ["stretch x", "stretch y (< 0 inverts)", "shear", "rotation (°)", "ν"]
+LESSON04_BALL_CONTROLS = ["E", "ν", "dt (s)"]
+
+
+@pytest.mark.e2e
+@pytest.mark.timeout(300)
+def test_lesson04_two_interact_widgets_redraw_independently(lab, tmp_path):
+    _in_browser(lab, tmp_path, _drive_lesson04)
+
+
+def _drive_lesson04(page, lab, shots_dir):
+    t0 = time.monotonic()
+    (el_cell, el_box), (ball_cell, ball_box) = _open_and_run_all(page, lab, LESSON04, 2, t0)
+    # First box: element_demo (mesh + force arrows); last box: ball_push_demo (filmstrip).
+    for box, expected in ((el_box, LESSON04_ELEMENT_CONTROLS), (ball_box, LESSON04_BALL_CONTROLS)):
+        assert _labels(box) == expected, f"widget controls {_labels(box)}, expected {expected}"
+    el0, el_shot0 = _initial_figure(page, el_cell, el_box, shots_dir, "1_element_initial", t0)
+    ball0, ball_shot0 = _initial_figure(page, ball_cell, ball_box, shots_dir, "2_ball_initial", t0,
+                                        min_size=(400, 100))
+
+    # 1) First box: squash the patch with "stretch y" (5 steps of 0.05 to the left).
+    sy, sy_before = _press_slider(el_box, "stretch y (< 0 inverts)", "ArrowLeft", 5, el_shot0)
+    el1 = _wait_new_image(page, el_box, el0, "moving the 'stretch y' slider")
+    sy_after = _readout(sy)
+    el_shot1 = _snapshot(el_box, shots_dir, "3_element_stretch_y", el1)
+    assert sy_after < sy_before, f"stretch y readout went {sy_before} -> {sy_after}; see {el_shot1}"
+    assert el1 != el0, f"element figure unchanged after moving stretch y; see {el_shot0}, {el_shot1}"
+    _check_single_figure(el_cell, el_box, el_shot1)
+    assert _img_src(ball_box) == ball0, (
+        f"moving 'stretch y' in the first widget redrew the last one; see {ball_shot0}")
+    print(f"[e2e] stretch y {sy_before} -> {sy_after}: element figure redrawn after "
+          f"{time.monotonic() - t0:.1f} s")
+
+    # 2) Last box: stiffen the ball with "E" (log slider, 3 steps to the right). Tag the first
+    #    box's <img> so that a redraw there shows even if it drew the very same PNG.
+    el_img = el_box.locator(".widget-output img")
+    el_img.evaluate("img => img.setAttribute('data-e2e-before-E', '1')")
+    e_slider, e_before = _press_slider(ball_box, "E", "ArrowRight", 3, ball_shot0)
+    ball1 = _wait_new_image(page, ball_box, ball0, "moving the 'E' slider")
+    e_after = _readout(e_slider)
+    ball_shot1 = _snapshot(ball_box, shots_dir, "4_ball_E", ball1)
+    assert e_after > e_before, f"E readout went {e_before} -> {e_after}; see {ball_shot1}"
+    assert ball1 != ball0, f"ball figure unchanged after moving E; see {ball_shot0}, {ball_shot1}"
+    _check_single_figure(ball_cell, ball_box, ball_shot1)
+    el_shot2 = _snapshot(el_box, shots_dir, "5_element_after_E", _img_src(el_box))
+    assert _img_src(el_box) == el1, (
+        f"moving 'E' in the last widget changed the first widget's figure; see {el_shot1} and "
+        f"{el_shot2}")
+    assert el_box.locator(".widget-output img[data-e2e-before-E]").count() == 1, (
+        f"moving 'E' in the last widget redrew the first widget's figure; see {el_shot2}")
+    _check_single_figure(el_cell, el_box, el_shot2)
+    print(f"[e2e] E {e_before} -> {e_after}: ball figure redrawn, element figure untouched after "
+          f"{time.monotonic() - t0:.1f} s")
+
+    assert page.locator(LIVE_BOX_SEL).count() == 2, "the number of interactive widgets changed"
+    _assert_no_errors(page, f"at the end (widget screenshots in {shots_dir})")
