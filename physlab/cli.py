@@ -15,6 +15,8 @@ import sys
 import time
 from pathlib import Path
 
+from physlab._io import atomic_write
+
 LESSONS_DIR = Path(__file__).resolve().parent.parent / "lessons"
 
 
@@ -53,9 +55,7 @@ def save_figures(nb, out_dir):
             png = out.get("data", {}).get("image/png")
             if png:
                 p = out_dir / f"cell{ci:02d}_{k}.png"
-                tmp = p.with_suffix(".png.part")
-                tmp.write_bytes(base64.b64decode(png))
-                tmp.replace(p)  # atomic
+                atomic_write(p, lambda tmp, png=png: Path(tmp).write_bytes(base64.b64decode(png)))
                 written.append(p)
     return written
 
@@ -107,9 +107,8 @@ def main(argv=None):
         for p in args.paths:
             t0 = time.perf_counter()
             nb = execute_notebook(p, timeout=args.timeout)
-            tmp = Path(f"{p}.part")
-            nbformat.write(nb, tmp)
-            tmp.replace(p)  # atomic: a failed run never leaves a half-written lesson
+            # atomic: a failed run never leaves a half-written lesson
+            atomic_write(p, lambda tmp, nb=nb: nbformat.write(nb, tmp), ".ipynb")
             print(f"{p}: executed in {time.perf_counter() - t0:.1f} s")
     elif args.cmd == "animate":
         from physlab.demos.physanimator import animate_drawing

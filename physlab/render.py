@@ -50,12 +50,13 @@ ordered by :func:`render_bodies`' ``depth``.
 from __future__ import annotations
 
 import base64
-import os
 import tempfile
 from pathlib import Path
 from typing import Protocol, Sequence, runtime_checkable
 
 import numpy as np
+
+from physlab._io import atomic_write
 
 __all__ = [
     "warp_texture", "composite", "render_bodies", "edge_map",
@@ -615,22 +616,6 @@ def _frames_uint8(frames):
     return f
 
 
-def _atomic_write(path, suffix, write):
-    """Call ``write(tmp_path)`` for a temp file next to ``path``, then ``os.replace`` it."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=suffix, dir=path.parent)
-    os.close(fd)
-    try:
-        write(tmp)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.remove(tmp)
-        raise
-    return path
-
-
 def frames_to_gif(frames, path, fps=20):
     """Write (T, H, W, 3|4) uint8 (or float in [0, 1]) frames to an animated, looping GIF.
 
@@ -639,7 +624,7 @@ def frames_to_gif(frames, path, fps=20):
     from physlab.viz.anim import save_gif
 
     f = _frames_uint8(frames)
-    return _atomic_write(path, ".gif", lambda tmp: save_gif(f, tmp, fps=fps))
+    return atomic_write(path, lambda tmp: save_gif(f, tmp, fps=fps), ".gif")
 
 
 def _write_mp4(f, path, fps, crf):
@@ -672,7 +657,7 @@ def frames_to_mp4(frames, path, fps=24, crf=23):
     f = _frames_uint8(frames)
     if fps <= 0:
         raise ValueError(f"fps must be > 0, got {fps}")
-    return _atomic_write(path, ".mp4", lambda tmp: _write_mp4(f, tmp, fps, crf))
+    return atomic_write(path, lambda tmp: _write_mp4(f, tmp, fps, crf), ".mp4")
 
 
 def frames_to_html(frames, fps=24, fmt="video", crf=25, width=None):

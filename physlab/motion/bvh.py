@@ -32,13 +32,13 @@ the external data folder (``../shared/data/mocap``):
 """
 from __future__ import annotations
 
-import os
 import re
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+
+from physlab._io import atomic_write_text
 
 from .skeleton import FOOT_JOINTS, JOINT_NAMES, euler_to_matrix, forward_kinematics
 
@@ -426,17 +426,7 @@ def write_bvh(path, motion):
     text = "\n".join(out) + "\n"
     if m.motion.shape[1] > 0:
         text += "\n".join(_fmt(row) for row in m.motion) + "\n"
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent or ".")
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as f:
-            f.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
-    return path
+    return atomic_write_text(path, text)
 
 
 # ----------------------------------------------------------------------------- resampling

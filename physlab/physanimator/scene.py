@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from physlab._io import atomic_write_text
 from physlab.mesh import TriMesh
 
 from .rigging import FixedRig, WavyRig
@@ -159,12 +160,7 @@ class Scene:
         """The scene as JSON text (textures as base64 PNG); also written to ``path`` if given."""
         text = json.dumps(self.to_dict(), default=_jsonable)
         if path is not None:
-            import os
-
-            tmp = f"{path}.part"
-            with open(tmp, "w") as fh:
-                fh.write(text)
-            os.replace(tmp, path)  # atomic
+            atomic_write_text(path, text)
         return text
 
     @classmethod
