@@ -1,0 +1,267 @@
+"""The inbetweening pipeline: two keyframes + skeletons → in-between frames.
+
+Brodt & Bessmeltsev 2024, Secs. 4–5, for drawings without occlusions:
+
+1. a template per keyframe (:func:`~physlab.inbetween.template.build_template`, Secs. 4.1–4.2);
+2. the skeletal animation ``x_i(t)``: given, or :func:`~physlab.inbetween.skeleton.interpolate`
+   (bone angles and lengths) between the key skeletons;
+3. both templates deformed into every pose (Sec. 4.3, Eq. 1) — template 0 forwards from
+   t = 0, template 1 backwards from t = 1, each frame warm-started from the previous one —
+   and textured with their keyframe (Sec. 5.1), giving ``I→(t)`` and ``I←(t)``;
+4. the blending optimisation (Sec. 5.2): flows between ``I→(t)`` and ``I←(t)``, costs, the
+   cheapest path through the image matrix ``I(α, t)``, and its frames
+   (:mod:`physlab.inbetween.blend`; RIFE replaced by :class:`FlowInterpolator`).
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .blend import (alpha_grid, blend_costs, blending_path, diagonal_path, image_matrix,
+                    interpolation_quality, render_path, row_flows)
+from .deform import MAX_ITER, MU, TOL, SymmetricDirichletDeformer, flipped_count
+from .interpolate import FlowInterpolator
+from .skeleton import Skeleton, check_compatible, interpolate
+from .template import Template, as_rgba_float, build_template
+
+__all__ = ["inbetween", "InbetweenResult", "deform_sequence", "DEFORMERS", "BLENDS"]
+
+DEFORMERS = ("symmetric_dirichlet", "arap", "lbs")
+BLENDS = ("optimal", "diagonal")
+
+
+@dataclass
+class InbetweenResult:
+    """Frames and intermediate products of :func:`inbetween`.
+
+    Attributes
+    ----------
+    frames : (n, H, W, C) float32 in [0, 1]: key 0, the in-betweens, key 1 (C = 4 for RGBA
+        keys, 3 for opaque keys, composited over the paper colour).
+    t : (n,) times ``linspace(0, 1, n)``.
+    skeletons : list of n Skeletons, the skeletal animation used.
+    templates : (Template, Template) of key 0 and key 1.
+    x_fwd, x_bwd : (n, n0, 2), (n, n1, 2) deformed template vertices per frame (pixels).
+    fwd, bwd : (n, H, W, 4) float32 straight RGBA, ``I→(t)`` and ``I←(t)``.
+    distortion_fwd, distortion_bwd : (n,) texture distortion ``E_d/4 − 1`` per frame.
+    handle_error : (2, n) largest handle error (px) per template and frame.
+    flipped : (2, n) flipped-triangle count per template and frame.
+    alphas, eps : the α grid and the largest α step per frame.
+    Q : (n,) interpolation quality per row (mean ``|div v|²`` over the foreground).
+    path : BlendPath (chosen), diagonal : BlendPath (α = t, same costs).
+    costs : BlendCosts.
+    matrix : ImageMatrix or None (``keep_matrix=True``).
+    timings : dict stage → seconds.
+    """
+
+    frames: np.ndarray
+    t: np.ndarray
+    skeletons: list
+    templates: tuple
+    x_fwd: np.ndarray
+    x_bwd: np.ndarray
+    fwd: np.ndarray
+    bwd: np.ndarray
+    distortion_fwd: np.ndarray
+    distortion_bwd: np.ndarray
+    handle_error: np.ndarray
+    flipped: np.ndarray
+    alphas: np.ndarray
+    eps: float
+    Q: np.ndarray
+    path: object
+    diagonal: object
+    costs: object
+    matrix: object = None
+    timings: dict = field(default_factory=dict)
+
+    def __repr__(self):
+        n, H, W, C = self.frames.shape
+        return (f"InbetweenResult({n} frames {W}x{H}x{C}, path α={np.round(self.path.alphas, 2)}, "
+                f"max handle error {self.handle_error.max():.2g} px, "
+                f"flipped {int(self.flipped.sum())})")
+
+
+def _progress(it, progress, desc):
+    if not progress:
+        return it
+    from tqdm.auto import tqdm
+
+    return tqdm(it, desc=desc, leave=False)
+
+
+def deform_sequence(template, skeletons, deformer="symmetric_dirichlet", order=None,
+                    progress=False, **options):
+    """Deform a template into every skeleton of a sequence, warm-starting each frame.
+
+    Parameters
+    ----------
+    template : Template.
+    skeletons : list of n Skeletons with the template's topology.
+    deformer : "symmetric_dirichlet" (Eq. 1, default), "arap" or "lbs" (comparisons,
+        :mod:`physlab.inbetween.skinning`).
+    order : iterable of frame indices in solving order (default 0..n−1; the backward
+        template uses n−1..0 so it starts from its own keyframe).
+    options : ``mu``, ``tol``, ``max_iter`` for the symmetric Dirichlet deformer.
+
+    Returns
+    -------
+    x : (n, n_vertices, 2) positions (pixels); energy_d : (n,) ``E_d`` per frame;
+    handle_error : (n,) largest handle error (px); flipped : (n,) flipped-triangle counts.
+    """
+    from .deform import symmetric_dirichlet_energy
+
+    if deformer not in DEFORMERS:
+        raise ValueError(f"deformer must be one of {DEFORMERS}, got {deformer!r}")
+    n = len(skeletons)
+    order = list(range(n)) if order is None else list(order)
+    targets = [template.targets(s) for s in skeletons]  # also checks the topology
+    X, tris = template.X, template.tris
+    xs = np.empty((n, len(X), 2))
+    if deformer == "symmetric_dirichlet":
+        D = SymmetricDirichletDeformer(template, mu=options.get("mu", MU))
+        x = None
+        for i in _progress(order, progress, "deform"):
+            x = D.solve(targets[i], x0=x, tol=options.get("tol", TOL),
+                        max_iter=options.get("max_iter", MAX_ITER)).x
+            xs[i] = x
+    else:
+        from .skinning import bbw_weights, skeleton_deform
+
+        weights = bbw_weights(X, tris, template.skeleton, template.handle_vertices)
+        for i in _progress(order, progress, "deform"):
+            xs[i] = skeleton_deform(X, tris, template.skeleton, skeletons[i],
+                                    template.handle_vertices, method=deformer, weights=weights)
+    energy = np.array([symmetric_dirichlet_energy(X, tris, x) for x in xs])
+    err = np.array([np.linalg.norm(template.handle_positions(x) - tg, axis=1).max()
+                    for x, tg in zip(xs, targets)])
+    flipped = np.array([flipped_count(X, x, tris) for x in xs])
+    return xs, energy, err, flipped
+
+
+def _paper_colour(img, mask):
+    """Median RGB of the background (non-mask) pixels of an opaque keyframe."""
+    bg = img[..., :3][~mask]
+    return np.median(bg, axis=0) if len(bg) else np.ones(3, np.float32)
+
+
+def inbetween(key0, key1, skeleton0, skeleton1, n_frames, animation=None, *, mask0=None,
+              mask1=None, mask_predictor=None, max_area=None, deformer="symmetric_dirichlet",
+              mu=MU, tol=TOL, max_iter=MAX_ITER, interpolator=None, blend="optimal",
+              speedup=3, lambda_Q=1.0, lambda_dist=1.0, lambda_mid=0.0, keep_matrix=False,
+              progress=False):
+    """In-between frames of two keyframe drawings driven by a skeletal animation.
+
+    Brodt & Bessmeltsev 2024 (no-occlusion case; module docstring for the stages).
+
+    Parameters
+    ----------
+    key0, key1 : (H, W, 3|4) uint8 or float images of the same size.
+    skeleton0, skeleton1 : Skeletons of the keys (pixels), same topology.
+    n_frames : int ≥ 2, frames including both keys (9 in-betweens → 11).
+    animation : None (interpolate bone angles and lengths) or a list of ``n_frames``
+        Skeletons, the skeletal motion ``x_i(t)`` (the first and last should match the keys).
+    mask0, mask1 : foreground masks, or None to predict them (``mask_predictor``, default
+        the classical mask of :mod:`physlab.inbetween.template`).
+    max_area : Triangle's max triangle area (px²), None for the default (a few hundred).
+    deformer : "symmetric_dirichlet" (paper), "arap" or "lbs" (comparisons).
+    mu, tol, max_iter : symmetric Dirichlet options (paper: 200, 0.01, 5000).
+    interpolator : FrameInterpolator (default ``FlowInterpolator()``, the RIFE stand-in).
+    blend : "optimal" (the blending optimisation) or "diagonal" (α = t).
+    speedup : ε = speedup/(n_frames − 1), see :func:`~physlab.inbetween.blend.alpha_grid`.
+    lambda_Q, lambda_dist, lambda_mid : blending cost weights
+        (:func:`~physlab.inbetween.blend.blend_costs`).
+    keep_matrix : bool, also compute the whole image matrix (n·n_α frames; lessons, small
+        images only).
+    progress : bool, tqdm bars.
+
+    Returns
+    -------
+    InbetweenResult.
+
+    Raises
+    ------
+    ValueError for keys of different sizes, skeletons of different topology, joints outside
+    the image, empty masks, a bad ``n_frames`` / ``animation`` / option.
+    """
+    timings = {}
+    tic = time.perf_counter()
+    k0, k1 = as_rgba_float(key0, "key0"), as_rgba_float(key1, "key1")
+    if k0.shape != k1.shape:
+        raise ValueError(f"key0 and key1 must have the same size, got {k0.shape[:2]} and "
+                         f"{k1.shape[:2]} (resize or pad one of them)")
+    check_compatible(skeleton0, skeleton1)
+    n = int(n_frames)
+    if n != n_frames or n < 2:
+        raise ValueError(f"n_frames must be an integer ≥ 2 (both keys included), got {n_frames}")
+    if blend not in BLENDS:
+        raise ValueError(f"blend must be one of {BLENDS}, got {blend!r}")
+    t = np.linspace(0.0, 1.0, n)
+    if animation is None:
+        skeletons = interpolate(skeleton0, skeleton1, t)
+    else:
+        skeletons = list(animation)
+        if len(skeletons) != n:
+            raise ValueError(f"animation has {len(skeletons)} skeletons, expected n_frames = {n}")
+        for i, s in enumerate(skeletons):
+            if not isinstance(s, Skeleton):
+                raise TypeError(f"animation[{i}] is not a Skeleton")
+            check_compatible(skeleton0, s, ("skeleton0", f"animation[{i}]"))
+    opaque = bool(k0[..., 3].min() == 1.0 and k1[..., 3].min() == 1.0)
+
+    tpl0 = build_template(k0, skeleton0, mask=mask0, mask_predictor=mask_predictor,
+                          max_area=max_area, name="key0")
+    tpl1 = build_template(k1, skeleton1, mask=mask1, mask_predictor=mask_predictor,
+                          max_area=max_area, name="key1")
+    timings["template"] = time.perf_counter() - tic
+
+    tic = time.perf_counter()
+    opts = dict(mu=mu, tol=tol, max_iter=max_iter)
+    x0s, e0, err0, flip0 = deform_sequence(tpl0, skeletons, deformer, progress=progress, **opts)
+    x1s, e1, err1, flip1 = deform_sequence(tpl1, skeletons, deformer, order=range(n - 1, -1, -1),
+                                           progress=progress, **opts)
+    timings["deform"] = time.perf_counter() - tic
+
+    tic = time.perf_counter()
+    H, W = k0.shape[:2]
+    fwd = np.stack([tpl0.render(x, (H, W)) for x in _progress(x0s, progress, "render I→")])
+    bwd = np.stack([tpl1.render(x, (H, W)) for x in _progress(x1s, progress, "render I←")])
+    timings["render"] = time.perf_counter() - tic
+
+    tic = time.perf_counter()
+    interp = FlowInterpolator() if interpolator is None else interpolator
+    alphas, eps = alpha_grid(n, speedup=speedup)
+    matrix = None
+    if keep_matrix:
+        matrix = image_matrix(fwd, bwd, alphas, interp, progress=progress)
+        flows = matrix.flows
+    else:
+        flows = row_flows(fwd, bwd, interp, progress=progress)
+    fg = (fwd[..., 3] > 0.5) | (bwd[..., 3] > 0.5)
+    Q = np.array([interpolation_quality(f, m) for f, m in zip(flows, fg)])
+    dist0, dist1 = np.maximum(e0 / 4.0 - 1.0, 0.0), np.maximum(e1 / 4.0 - 1.0, 0.0)
+    costs = blend_costs(alphas, n_t=n, Q=Q, distortion_fwd=dist0, distortion_bwd=dist1,
+                        lambda_Q=lambda_Q, lambda_dist=lambda_dist, lambda_mid=lambda_mid)
+    diagonal = diagonal_path(n, alphas, costs)
+    path = blending_path(costs, eps) if blend == "optimal" else diagonal
+    timings["flow+path"] = time.perf_counter() - tic
+
+    tic = time.perf_counter()
+    if matrix is not None:
+        frames = matrix.images[np.arange(n), path.indices]
+    else:
+        frames = render_path(fwd, bwd, path, interp)
+    frames = np.asarray(frames, np.float32).copy()
+    frames[0], frames[-1] = k0, k1  # the keys exactly (outside-mask pixels included)
+    if opaque:  # paper drawings: composite the in-betweens over the paper colour
+        paper = 0.5 * (_paper_colour(k0, tpl0.mask) + _paper_colour(k1, tpl1.mask))
+        a = frames[..., 3:4]
+        frames = (frames[..., :3] * a + paper * (1.0 - a)).astype(np.float32)
+    timings["blend"] = time.perf_counter() - tic
+    return InbetweenResult(
+        frames=frames, t=t, skeletons=skeletons, templates=(tpl0, tpl1), x_fwd=x0s, x_bwd=x1s,
+        fwd=fwd, bwd=bwd, distortion_fwd=dist0, distortion_bwd=dist1,
+        handle_error=np.stack([err0, err1]), flipped=np.stack([flip0, flip1]), alphas=alphas,
+        eps=eps, Q=Q, path=path, diagonal=diagonal, costs=costs, matrix=matrix, timings=timings)

@@ -1,0 +1,296 @@
+"""2D skeletons of drawn characters and their interpolation (Brodt & Bessmeltsev 2024, Sec. 4).
+
+A :class:`Skeleton` is a tree of ``J`` joints in pixel coordinates ``(x, y)``, y down. Every
+non-root joint ``j`` ends the *bone* ``(parents[j], j)``; bones are indexed like the joints
+they end, so ``bone_lengths()[j]`` is the length of the bone into joint ``j`` (0 for the
+root). Angles are measured in image coordinates: ``atan2(dy, dx)`` with y down, i.e.
+clockwise on screen.
+
+:func:`interpolate` produces the skeletal animation ``x_i(t)`` between two key skeletons the
+way an animator's rig does: it blends each bone's **local** angle (relative to its parent
+bone, shortest arc) and its length, then rebuilds the joints by forward kinematics from the
+linearly interpolated root. Interpolating joint positions instead would shorten limbs that
+rotate (a 180° swing passes through zero length).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["Skeleton", "interpolate", "check_compatible"]
+
+#: Bones shorter than this (px) have no direction; their angle is inherited from the parent.
+MIN_BONE_LENGTH = 1e-6
+
+
+def _wrap(a):
+    """Angles wrapped into (-π, π]."""
+    return np.pi - np.mod(np.pi - np.asarray(a, dtype=float), 2 * np.pi)
+
+
+@dataclass(frozen=True, eq=False)
+class Skeleton:
+    """A 2D joint tree in pixel coordinates.
+
+    Parameters
+    ----------
+    names : sequence of J unique str, joint names.
+    parents : (J,) int, parent index of each joint, -1 for the single root.
+    xy : (J, 2) float, joint positions ``(x, y)`` in pixels, y down.
+
+    Raises
+    ------
+    ValueError for mismatched lengths, duplicate names, not exactly one root, parents out of
+    range or forming a cycle, NaN/inf positions.
+    """
+
+    names: tuple
+    parents: np.ndarray
+    xy: np.ndarray
+
+    def __post_init__(self):
+        names = tuple(str(n) for n in self.names)
+        parents = np.asarray(self.parents)
+        xy = np.asarray(self.xy, dtype=np.float64)
+        J = len(names)
+        if J == 0:
+            raise ValueError("a skeleton needs at least one joint")
+        if len(set(names)) != J:
+            dup = sorted({n for n in names if names.count(n) > 1})
+            raise ValueError(f"joint names must be unique; repeated: {dup}")
+        if parents.shape != (J,) or not np.issubdtype(parents.dtype, np.integer):
+            raise ValueError(f"parents must be a ({J},) int array (one per name), got "
+                             f"{parents.dtype} {parents.shape}")
+        if xy.shape != (J, 2):
+            raise ValueError(f"xy must have shape ({J}, 2), got {xy.shape}")
+        if not np.all(np.isfinite(xy)):
+            raise ValueError("skeleton joint positions contain NaN or inf")
+        parents = parents.astype(np.int64)
+        roots = np.flatnonzero(parents < 0)
+        if len(roots) != 1 or parents[roots[0]] != -1:
+            raise ValueError(f"a skeleton needs exactly one root (parent -1); got roots at "
+                             f"{roots.tolist()}")
+        if np.any(parents >= J) or np.any(parents == np.arange(J)):
+            raise ValueError("parents must index other joints (0 ≤ parent < J, parent ≠ self)")
+        order = _topological_order(parents)
+        object.__setattr__(self, "names", names)
+        object.__setattr__(self, "parents", parents)
+        object.__setattr__(self, "xy", xy)
+        object.__setattr__(self, "_order", order)
+        xy.setflags(write=False)
+        parents.setflags(write=False)
+
+    # ------------------------------------------------------------------ basic properties
+    def __len__(self):
+        return len(self.names)
+
+    def __repr__(self):
+        return f"Skeleton({len(self)} joints, root={self.names[self.root]!r})"
+
+    @property
+    def root(self):
+        """Index of the root joint."""
+        return int(np.flatnonzero(self.parents < 0)[0])
+
+    @property
+    def order(self):
+        """(J,) int64, joints in an order where every parent precedes its children."""
+        return self._order
+
+    @property
+    def bones(self):
+        """(B, 2) int64 ``(parent, child)`` pairs, B = J − 1, in joint order."""
+        child = np.flatnonzero(self.parents >= 0)
+        return np.stack([self.parents[child], child], axis=1)
+
+    def index(self, name):
+        """Index of the joint called ``name`` (ValueError listing the names if unknown)."""
+        try:
+            return self.names.index(name)
+        except ValueError:
+            raise ValueError(f"no joint {name!r}; joints are {list(self.names)}") from None
+
+    def bone_vectors(self):
+        """(J, 2) vector from each joint's parent to the joint, zeros for the root."""
+        v = np.zeros_like(self.xy)
+        c = self.parents >= 0
+        v[c] = self.xy[c] - self.xy[self.parents[c]]
+        return v
+
+    def bone_lengths(self):
+        """(J,) length (px) of the bone into each joint, 0 for the root."""
+        return np.linalg.norm(self.bone_vectors(), axis=1)
+
+    def bone_angles(self):
+        """(J,) absolute angle (rad, image axes) of the bone into each joint.
+
+        Zero-length bones (and the root) inherit their parent bone's angle (0 at the root).
+        """
+        v = self.bone_vectors()
+        ang = np.arctan2(v[:, 1], v[:, 0])
+        out = np.zeros(len(self))
+        for j in self.order:
+            p = self.parents[j]
+            if p < 0:
+                continue
+            out[j] = ang[j] if np.hypot(*v[j]) > MIN_BONE_LENGTH else out[p]
+        return out
+
+    def local_angles(self):
+        """(J,) angle of each bone relative to its parent bone, in (-π, π].
+
+        Bones whose parent is the root (or whose parent bone has zero length at the root)
+        are measured against the x axis, so the local angles plus the root position and the
+        bone lengths determine the skeleton (:meth:`from_local`).
+        """
+        ang = self.bone_angles()
+        par = np.where(self.parents >= 0, self.parents, 0)
+        parent_ang = np.where(self.parents[par] >= 0, ang[par], 0.0)
+        return np.where(self.parents >= 0, _wrap(ang - parent_ang), 0.0)
+
+    def handles(self):
+        """Handle points of the deformation: every joint, then every bone midpoint.
+
+        Returns
+        -------
+        (J + B, 2) float pixels (Brodt & Bessmeltsev Sec. 4.2 "Point constraints").
+        """
+        b = self.bones
+        return np.concatenate([self.xy, 0.5 * (self.xy[b[:, 0]] + self.xy[b[:, 1]])])
+
+    # ------------------------------------------------------------------ constructors
+    def with_xy(self, xy):
+        """The same topology with new joint positions ``xy`` (J, 2)."""
+        return Skeleton(self.names, self.parents, xy)
+
+    @classmethod
+    def from_local(cls, names, parents, root_xy, local_angles, lengths):
+        """Forward kinematics: a skeleton from root position, local angles and bone lengths.
+
+        Parameters
+        ----------
+        names, parents : as in :class:`Skeleton`.
+        root_xy : (2,) float pixels.
+        local_angles : (J,) rad, as returned by :meth:`local_angles` (root entry ignored).
+        lengths : (J,) px ≥ 0, as returned by :meth:`bone_lengths` (root entry ignored).
+        """
+        parents = np.asarray(parents, dtype=np.int64)
+        J = len(parents)
+        local_angles = np.asarray(local_angles, dtype=float)
+        lengths = np.asarray(lengths, dtype=float)
+        if local_angles.shape != (J,) or lengths.shape != (J,):
+            raise ValueError(f"local_angles and lengths must have shape ({J},), got "
+                             f"{local_angles.shape} and {lengths.shape}")
+        if np.any(lengths < 0):
+            raise ValueError("bone lengths must be ≥ 0")
+        xy = np.zeros((J, 2))
+        ang = np.zeros(J)
+        for j in _topological_order(parents):
+            p = parents[j]
+            if p < 0:
+                xy[j] = np.asarray(root_xy, dtype=float)
+                continue
+            base = ang[p] if parents[p] >= 0 else 0.0
+            ang[j] = base + local_angles[j]
+            xy[j] = xy[p] + lengths[j] * np.array([np.cos(ang[j]), np.sin(ang[j])])
+        return cls(names, parents, xy)
+
+    @classmethod
+    def from_animated_drawings(cls, char_cfg_path):
+        """Read the skeleton of an AnimatedDrawings ``char_cfg.yaml`` (pixels, y down)."""
+        import yaml
+
+        path = Path(char_cfg_path)
+        if not path.is_file():
+            raise FileNotFoundError(f"no char_cfg.yaml at {path}")
+        with open(path, encoding="utf-8") as f:
+            cfg = yaml.safe_load(f)
+        try:
+            joints = cfg["skeleton"]
+            names = [str(j["name"]) for j in joints]
+            index = {n: i for i, n in enumerate(names)}
+            parents = [-1 if j.get("parent") is None else index[j["parent"]] for j in joints]
+            xy = [j["loc"] for j in joints]
+        except (KeyError, TypeError) as err:
+            raise ValueError(f"{path}: not an AnimatedDrawings character config "
+                             f"(expected a 'skeleton' list of name/parent/loc): {err}") from None
+        return cls(names, np.array(parents, dtype=np.int64), np.array(xy, dtype=float))
+
+    def to_dict(self):
+        """JSON-friendly dict (inverse of ``Skeleton(**d)``)."""
+        return {"names": list(self.names), "parents": self.parents.tolist(),
+                "xy": self.xy.tolist()}
+
+    def same_topology(self, other):
+        """Whether ``other`` has the same joint names and parents."""
+        return (isinstance(other, Skeleton) and self.names == other.names
+                and np.array_equal(self.parents, other.parents))
+
+
+def _topological_order(parents):
+    J = len(parents)
+    children = [[] for _ in range(J)]
+    for j, p in enumerate(parents):
+        if p >= 0:
+            children[p].append(j)
+    order = [int(np.flatnonzero(parents < 0)[0])]
+    i = 0
+    while i < len(order):
+        order.extend(children[order[i]])
+        i += 1
+    if len(order) != J:
+        raise ValueError("parents contain a cycle: not every joint is reachable from the root")
+    return np.array(order, dtype=np.int64)
+
+
+def check_compatible(sk0, sk1, names=("skeleton0", "skeleton1")):
+    """Raise ValueError unless two skeletons share joint names and parents."""
+    for s, n in zip((sk0, sk1), names):
+        if not isinstance(s, Skeleton):
+            raise TypeError(f"{n} must be a physlab.inbetween.Skeleton, got {type(s).__name__}")
+    if sk0.names != sk1.names:
+        raise ValueError(f"{names[0]} and {names[1]} have different joints: "
+                         f"{list(sk0.names)} vs {list(sk1.names)}")
+    if not np.array_equal(sk0.parents, sk1.parents):
+        bad = [sk0.names[j] for j in np.flatnonzero(sk0.parents != sk1.parents)]
+        raise ValueError(f"{names[0]} and {names[1]} have different topology: joints {bad} "
+                         "have different parents")
+
+
+def interpolate(sk0, sk1, t):
+    """Skeleton(s) between two key skeletons by blending bone angles and lengths.
+
+    Local bone angles (relative to the parent bone) follow the shortest arc from ``sk0`` to
+    ``sk1``, bone lengths and the root position are blended linearly, and joints are rebuilt
+    by forward kinematics (:meth:`Skeleton.from_local`). ``t = 0`` and ``t = 1`` return the
+    keys exactly (up to rounding).
+
+    Parameters
+    ----------
+    sk0, sk1 : Skeleton, same topology (:func:`check_compatible`).
+    t : float or (m,) floats in [0, 1].
+
+    Returns
+    -------
+    Skeleton for a scalar ``t``, else a list of m Skeletons.
+    """
+    check_compatible(sk0, sk1)
+    ts = np.atleast_1d(np.asarray(t, dtype=float))
+    if ts.ndim != 1 or not np.all(np.isfinite(ts)):
+        raise ValueError("t must be a finite scalar or 1D array")
+    a0, a1 = sk0.local_angles(), sk1.local_angles()
+    da = _wrap(a1 - a0)
+    L0, L1 = sk0.bone_lengths(), sk1.bone_lengths()
+    r0, r1 = sk0.xy[sk0.root], sk1.xy[sk1.root]
+    out = []
+    for s in ts:
+        if s == 0.0:
+            out.append(sk0)
+        elif s == 1.0:
+            out.append(sk1)
+        else:
+            out.append(Skeleton.from_local(sk0.names, sk0.parents, (1 - s) * r0 + s * r1,
+                                           a0 + s * da, (1 - s) * L0 + s * L1))
+    return out[0] if np.ndim(t) == 0 else out
