@@ -41,6 +41,19 @@ __all__ = [
     "animated_drawing",
     "ANIMATED_DRAWINGS",
     "ANIMATED_DRAWINGS_ATTRIBUTION",
+    # procedural cartoon characters with ground-truth poses (physlab.characters)
+    "CHARACTER_STYLES",
+    "CHARACTER_JOINTS",
+    "CHARACTER_PARTS",
+    "ADJACENT_PARTS",
+    "PAINT_ORDER",
+    "character_skeleton",
+    "pose_character",
+    "render_character",
+    "character_part_labels",
+    "part_overlaps",
+    "InbetweenPair",
+    "inbetween_benchmark",
 ]
 
 #: Near-black ink (RGB in [0, 1]).
@@ -496,3 +509,22 @@ def animated_drawing(name):
                    {"skeleton": {"names": names, "parents": parents, "xy": xy}, "mask": mask,
                     "char_cfg": cfg, "path": str(folder),
                     "attribution": ANIMATED_DRAWINGS_ATTRIBUTION})
+
+
+# ---------------------------------------------------------------------------------- characters
+# Re-exported from physlab.characters (numpy only; it imports this module's painting helpers
+# lazily, so either module can be imported first).
+from .characters import (
+    ADJACENT_PARTS,
+    CHARACTER_JOINTS,
+    CHARACTER_PARTS,
+    CHARACTER_STYLES,
+    PAINT_ORDER,
+    InbetweenPair,
+    character_part_labels,
+    character_skeleton,
+    inbetween_benchmark,
+    part_overlaps,
+    pose_character,
+    render_character,
+)
