@@ -394,10 +394,25 @@ def _per_row(x, n_t, name, default):
     return a
 
 
+TEXTURE_MODELS = ("variance", "linear")
+
+
 def blend_costs(alphas, n_t=None, Q=None, q_fwd=None, q_bwd=None, distortion_fwd=None,
                 distortion_bwd=None, lambda_Q=1.0, lambda_dist=1.0, lambda_mid=0.0,
-                lambda_diag=1e-3):
+                lambda_diag=1e-3, texture_model="variance", prior=0.01):
     """physlab's blending costs (module docstring; Brodt & Bessmeltsev 2024, Sec. 5.2).
+
+    Two readings of the texture term (``texture_model``):
+
+    * ``"linear"``: ``c = (1 − α) d→(t) + α d←(t)`` — linear in α, so the cheapest path
+      sits on one keyframe's texture and switches as fast as ε allows;
+    * ``"variance"``: the blend ``(1 − α) I→ + α I←`` of two aligned images with independent
+      texture errors of variances ``σ→²``, ``σ←²`` has error variance
+      ``(1 − α)² σ→² + α² σ←²``, minimised by ``α* = σ→² / (σ→² + σ←²)`` — a blend
+      that leans on the better texture without discarding the other. ``σ² = d + prior·s``
+      with ``s = t`` for I→ and ``1 − t`` for I← (a texture degrades with the distance from
+      its keyframe), so with no distortion information ``α* = t``, the diagonal. The term is
+      divided by its largest value so that the weights stay scale-free.
 
     Parameters
     ----------
@@ -411,6 +426,8 @@ def blend_costs(alphas, n_t=None, Q=None, q_fwd=None, q_bwd=None, distortion_fwd
         sequence (mean symmetric-Dirichlet excess ``E_d/4 − 1``); None: 0.
     lambda_Q, lambda_dist, lambda_mid, lambda_diag : float ≥ 0, weights (defaults 1, 1, 0,
         1e-3).
+    texture_model : "variance" (default) or "linear" (above).
+    prior : float > 0, the distance prior of the variance model (in units of ``d``).
 
     Returns
     -------
@@ -438,12 +455,22 @@ def blend_costs(alphas, n_t=None, Q=None, q_fwd=None, q_bwd=None, distortion_fwd
         raise ValueError("Q and the distortions must be ≥ 0")
     if qf.min() < 0 or qf.max() > 1 or qb.min() < 0 or qb.max() > 1:
         raise ValueError("texture qualities q_fwd, q_bwd must lie in [0, 1]")
+    if texture_model not in TEXTURE_MODELS:
+        raise ValueError(f"texture_model must be one of {TEXTURE_MODELS}, got {texture_model!r}")
+    if not (np.isfinite(prior) and prior > 0):
+        raise ValueError(f"prior must be a finite number > 0, got {prior}")
     t = np.linspace(0.0, 1.0, n_t)[:, None]                           # (n_t, 1)
     A = al[None, :]                                                   # (1, n_α)
     d_fwd = (1.0 - qf) + lambda_dist * Df                             # (n_t,)
     d_bwd = (1.0 - qb) + lambda_dist * Db
-    c = ((1.0 - A) * d_fwd[:, None] + A * d_bwd[:, None]             # (n_t, n_α)
-         + lambda_mid * 4.0 * A * (1.0 - A) + lambda_diag * np.abs(A - t))
+    if texture_model == "linear":
+        tex = (1.0 - A) * d_fwd[:, None] + A * d_bwd[:, None]         # (n_t, n_α)
+    else:
+        v_fwd = d_fwd[:, None] + prior * t                            # σ→², (n_t, 1)
+        v_bwd = d_bwd[:, None] + prior * (1.0 - t)                    # σ←²
+        tex = (1.0 - A) ** 2 * v_fwd + A ** 2 * v_bwd
+        tex = tex / max(float(np.max(np.maximum(v_fwd, v_bwd))), 1e-300)
+    c = tex + lambda_mid * 4.0 * A * (1.0 - A) + lambda_diag * np.abs(A - t)
     Qn = Q / Q.max() if Q.max() > 0 else Q
     move = lambda_Q * 0.5 * (Qn[:-1] + Qn[1:])                        # (n_t − 1,)
     return BlendCosts(vertex=c / (n_t - 1), move=move, alphas=al)
@@ -543,7 +570,8 @@ def _diagonal_cost(costs):
 
 def blending_path(matrix_or_costs, eps, *, q_fwd=None, q_bwd=None, distortion_fwd=None,
                   distortion_bwd=None, lambda_Q=1.0, lambda_dist=1.0, lambda_mid=0.0,
-                  lambda_diag=1e-3, foreground_only=True):
+                  lambda_diag=1e-3, texture_model="variance", prior=0.01,
+                  foreground_only=True):
     """Cheapest monotone path from I(0, 0) to I(1, 1) (Brodt & Bessmeltsev 2024, Sec. 5.2).
 
     Graph: a vertex per image; edges from ``(t_i, α_k)`` to ``(t_{i+1}, α_m)`` for
@@ -558,8 +586,8 @@ def blending_path(matrix_or_costs, eps, *, q_fwd=None, q_bwd=None, distortion_fw
     matrix_or_costs : :class:`ImageMatrix` (costs built with :func:`blend_costs` from its flows,
         ``Q`` over the foreground when ``foreground_only``) or :class:`BlendCosts`.
     eps : float, largest α step between consecutive rows (:func:`alpha_grid`).
-    q_fwd, q_bwd, distortion_fwd, distortion_bwd, lambda_* : passed to :func:`blend_costs`
-        (only with an ImageMatrix).
+    q_fwd, q_bwd, distortion_fwd, distortion_bwd, lambda_*, texture_model, prior : passed to
+        :func:`blend_costs` (only with an ImageMatrix).
     foreground_only : bool, average ``|div v|²`` over the union of the two silhouettes.
 
     Returns
@@ -578,7 +606,7 @@ def blending_path(matrix_or_costs, eps, *, q_fwd=None, q_bwd=None, distortion_fw
                             q_fwd=q_fwd, q_bwd=q_bwd, distortion_fwd=distortion_fwd,
                             distortion_bwd=distortion_bwd, lambda_Q=lambda_Q,
                             lambda_dist=lambda_dist, lambda_mid=lambda_mid,
-                            lambda_diag=lambda_diag)
+                            lambda_diag=lambda_diag, texture_model=texture_model, prior=prior)
     elif isinstance(matrix_or_costs, BlendCosts):
         costs = matrix_or_costs
         if any(x is not None for x in (q_fwd, q_bwd, distortion_fwd, distortion_bwd)):

@@ -124,7 +124,7 @@ def test_texture_quality():
 def test_blend_costs_shapes_and_values():
     al, _ = alpha_grid(5)
     c = blend_costs(al, distortion_fwd=[0, 0.1, 0.2, 0.3, 0.4], q_bwd=[0.5, 1, 1, 1, 1],
-                    Q=[1, 2, 4, 2, 1], lambda_diag=0)
+                    Q=[1, 2, 4, 2, 1], lambda_diag=0, texture_model="linear")
     assert c.vertex.shape == (5, len(al)) and c.move.shape == (4,)
     # row 1: c = ((1 − α)·0.1 + α·0) / 4
     np.testing.assert_allclose(c.vertex[1], (1 - al) * 0.1 / 4)
@@ -138,29 +138,53 @@ def test_blend_costs_shapes_and_values():
         blend_costs(al, q_fwd=2 * np.ones(5))
     with pytest.raises(ValueError, match="n_t"):
         blend_costs(al)
+    with pytest.raises(ValueError, match="texture_model"):
+        blend_costs(al, n_t=5, texture_model="quadratic")
+
+
+def test_variance_texture_model_values():
+    al, _ = alpha_grid(5)
+    Df = np.array([0, 0.1, 0.2, 0.3, 0.4])
+    c = blend_costs(al, distortion_fwd=Df, lambda_diag=0, prior=0.01)
+    t = np.linspace(0, 1, 5)
+    vf, vb = Df + 0.01 * t, 0.01 * (1 - t)                  # σ→², σ←²
+    expect = ((1 - al[None]) ** 2 * vf[:, None] + al[None] ** 2 * vb[:, None]) / vf.max() / 4
+    np.testing.assert_allclose(c.vertex, expect)
+    # per row, the cheapest α is the minimum-variance blend σ→² / (σ→² + σ←²)
+    best = al[np.argmin(c.vertex, axis=1)]
+    np.testing.assert_allclose(best, vf / (vf + vb), atol=0.5 * (al[1] - al[0]) + 1e-12)
 
 
 # --------------------------------------------------------------------------- paths
 def test_default_costs_choose_the_diagonal():
     n = 11
     al, eps = alpha_grid(n)
-    c = blend_costs(al, n_t=n)
+    c = blend_costs(al, n_t=n, texture_model="linear")
     p = blending_path(c, eps)
     check_path(p, c, eps)
     np.testing.assert_allclose(p.alphas, np.linspace(0, 1, n), atol=1e-12)
     assert p.cost == p.diagonal_cost == pytest.approx(0.0, abs=1e-15)
+    # the variance model without distortion information: σ→² ∝ t, σ←² ∝ 1 − t → α* = t
+    c = blend_costs(al, n_t=n)
+    p = blending_path(c, eps)
+    check_path(p, c, eps)
+    np.testing.assert_allclose(p.alphas, np.linspace(0, 1, n), atol=1e-12)
+    assert p.cost == pytest.approx(p.diagonal_cost)
 
 
 def test_path_prefers_less_distorted_key():
     n = 11
     al, eps = alpha_grid(n)
     # key 0's texture is stretched throughout: leave it as fast as ε allows
-    c = blend_costs(al, distortion_fwd=np.full(n, 0.3))
+    c = blend_costs(al, distortion_fwd=np.full(n, 0.3), texture_model="linear")
     p = blending_path(c, eps)
     np.testing.assert_allclose(p.alphas, np.minimum(1, eps * np.arange(n)), atol=1e-12)
+    # variance model: lean on key 1 but keep blending (α* = σ→²/(σ→² + σ←²) ≈ 0.97)
+    pv = blending_path(blend_costs(al, distortion_fwd=np.full(n, 0.3)), eps)
+    assert pv.alphas[3] == pytest.approx(0.9) and pv.cost < pv.diagonal_cost
     # symmetric distortion growing away from each key: hold key 0, switch mid-way, hold key 1
     D = np.linspace(0, 0.5, n)
-    c = blend_costs(al, distortion_fwd=D, distortion_bwd=D[::-1])
+    c = blend_costs(al, distortion_fwd=D, distortion_bwd=D[::-1], texture_model="linear")
     p = blending_path(c, eps)
     check_path(p, c, eps)
     assert np.all(p.alphas[:4] == 0) and np.all(p.alphas[-4:] == 1)
@@ -169,7 +193,7 @@ def test_path_prefers_less_distorted_key():
     # fwd texture inpainted from t = 0.4 on: switch to bwd before that
     q = np.ones(n)
     q[4:] = 0.7
-    p = blending_path(blend_costs(al, q_fwd=q), eps)
+    p = blending_path(blend_costs(al, q_fwd=q, texture_model="linear"), eps)
     assert p.alphas[4] == 1.0
 
 
@@ -178,7 +202,7 @@ def test_path_moves_where_flow_is_incompressible():
     al, eps = alpha_grid(n)
     Q = np.ones(n)
     Q[7:10] = 0.1
-    c = blend_costs(al, Q=Q)
+    c = blend_costs(al, Q=Q, texture_model="linear")
     p = blending_path(c, eps)
     check_path(p, c, eps)
     np.testing.assert_allclose(p.alphas, [0, 0, 0, 0, 0, 0, 0, 0.3, 0.6, 0.9, 1.0], atol=1e-12)
