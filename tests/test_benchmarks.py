@@ -5,12 +5,17 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 
 
-def test_bench_fem_quick_runs_and_matches_reference():
+def _load(name):
+    """Import ``benchmarks/<name>.py`` as a module."""
     sys.path.insert(0, str(ROOT / "benchmarks"))
     try:
-        import bench_fem
+        return __import__(name)
     finally:
         sys.path.pop(0)
+
+
+def test_bench_fem_quick_runs_and_matches_reference():
+    bench_fem = _load("bench_fem")
     out = bench_fem.main(["--quick"])
     assert out["sizes"] and out["pipeline"] is not None
     for size in out["sizes"]:
@@ -19,11 +24,7 @@ def test_bench_fem_quick_runs_and_matches_reference():
 
 
 def test_bench_springs_quick_runs_and_matches_reference(capsys):
-    sys.path.insert(0, str(ROOT / "benchmarks"))
-    try:
-        import bench_springs
-    finally:
-        sys.path.pop(0)
+    bench_springs = _load("bench_springs")
     out = bench_springs.main(["--quick"])
     assert out["scenes"], "no scene was measured"
     text = capsys.readouterr().out
@@ -31,3 +32,13 @@ def test_bench_springs_quick_runs_and_matches_reference(capsys):
     for scene in out["scenes"]:
         # physlab's implicit step and the independent reference agree on the new velocities
         assert scene["agreement"]["rel"] < 1e-6, scene["agreement"]
+
+
+def test_bench_inbetween_quick_runs(capsys):
+    bench_inbetween = _load("bench_inbetween")
+    out = bench_inbetween.main(["--quick"])
+    (row,) = out["rows"]
+    assert set(row["stages"]) == {"template", "deform", "render", "flow+path", "blend"}
+    assert row["flipped"] == 0 and row["handle_error_px"] < 1.0
+    assert row["deform_gradient"] > 0
+    assert "paper Table 2" in capsys.readouterr().out

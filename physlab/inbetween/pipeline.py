@@ -29,6 +29,7 @@ from .template import Template, as_rgba_float, build_template
 __all__ = ["inbetween", "InbetweenResult", "deform_sequence", "DEFORMERS", "BLENDS"]
 
 DEFORMERS = ("symmetric_dirichlet", "arap", "lbs")
+DISTORTION_CAP = 100.0  #: texture distortion assigned to frames with folded triangles
 BLENDS = ("optimal", "diagonal")
 
 
@@ -121,7 +122,8 @@ def deform_sequence(template, skeletons, deformer="symmetric_dirichlet", order=N
         solve goes through intermediate poses (:func:`interpolate`), each warm-started from
         the last: large rotations reached in one solve can get stuck in distorted local
         minima, as the pose term (μ = 200 per px²) pulls handles far ahead of the mesh.
-    options : ``mu``, ``tol``, ``max_iter`` for the symmetric Dirichlet deformer.
+    options : ``mu``, ``tol``, ``max_iter``, ``method`` ("lbfgs" or "gradient") for the
+        symmetric Dirichlet deformer.
 
     Returns
     -------
@@ -139,7 +141,8 @@ def deform_sequence(template, skeletons, deformer="symmetric_dirichlet", order=N
     xs = np.empty((n, len(X), 2))
     if deformer == "symmetric_dirichlet":
         D = SymmetricDirichletDeformer(template, mu=options.get("mu", MU))
-        solve = dict(tol=options.get("tol", TOL), max_iter=options.get("max_iter", MAX_ITER))
+        solve = dict(tol=options.get("tol", TOL), max_iter=options.get("max_iter", MAX_ITER),
+                     method=options.get("method", "lbfgs"))
         x, prev = None, template.skeleton
         for i in _progress(order, progress, "deform"):
             for s in _substeps(prev, skeletons[i], max_handle_step):
@@ -167,7 +170,8 @@ def _paper_colour(img, mask):
 
 def inbetween(key0, key1, skeleton0, skeleton1, n_frames, animation=None, *, mask0=None,
               mask1=None, mask_predictor=None, max_area=None, deformer="symmetric_dirichlet",
-              mu=MU, tol=TOL, max_iter=MAX_ITER, interpolator=None, blend="optimal",
+              mu=MU, tol=TOL, max_iter=MAX_ITER, solver="lbfgs", interpolator=None,
+              blend="optimal",
               speedup=3, texture_model="variance", lambda_Q=0.1, lambda_dist=1.0,
               lambda_mid=0.0, prior=0.01, keep_matrix=False, progress=False):
     """In-between frames of two keyframe drawings driven by a skeletal animation.
@@ -186,6 +190,8 @@ def inbetween(key0, key1, skeleton0, skeleton1, n_frames, animation=None, *, mas
     max_area : Triangle's max triangle area (px²), None for the default (a few hundred).
     deformer : "symmetric_dirichlet" (paper), "arap" or "lbs" (comparisons).
     mu, tol, max_iter : symmetric Dirichlet options (paper: 200, 0.01, 5000).
+    solver : "lbfgs" (Laplacian-preconditioned quasi-Newton, default) or "gradient" (the
+        plain Sobolev gradient method).
     interpolator : FrameInterpolator (default ``FlowInterpolator()``, the RIFE stand-in).
     blend : "optimal" (the blending optimisation) or "diagonal" (α = t).
     speedup : ε = speedup/(n_frames − 1), see :func:`~physlab.inbetween.blend.alpha_grid`.
@@ -238,7 +244,7 @@ def inbetween(key0, key1, skeleton0, skeleton1, n_frames, animation=None, *, mas
     timings["template"] = time.perf_counter() - tic
 
     tic = time.perf_counter()
-    opts = dict(mu=mu, tol=tol, max_iter=max_iter)
+    opts = dict(mu=mu, tol=tol, max_iter=max_iter, method=solver)
     x0s, e0, err0, flip0 = deform_sequence(tpl0, skeletons, deformer, progress=progress, **opts)
     x1s, e1, err1, flip1 = deform_sequence(tpl1, skeletons, deformer, order=range(n - 1, -1, -1),
                                            progress=progress, **opts)
@@ -261,7 +267,10 @@ def inbetween(key0, key1, skeleton0, skeleton1, n_frames, animation=None, *, mas
         flows = row_flows(fwd, bwd, interp, progress=progress)
     fg = (fwd[..., 3] > 0.5) | (bwd[..., 3] > 0.5)
     Q = np.array([interpolation_quality(f, m) for f, m in zip(flows, fg)])
-    dist0, dist1 = np.maximum(e0 / 4.0 - 1.0, 0.0), np.maximum(e1 / 4.0 - 1.0, 0.0)
+    # distortion D = E_d/4 − 1 (0 = rigid); frames with folded triangles (LBS/ARAP only) have
+    # E_d = ∞ and get the cap DISTORTION_CAP
+    dist0 = np.clip(np.nan_to_num(e0 / 4.0 - 1.0, posinf=DISTORTION_CAP), 0.0, DISTORTION_CAP)
+    dist1 = np.clip(np.nan_to_num(e1 / 4.0 - 1.0, posinf=DISTORTION_CAP), 0.0, DISTORTION_CAP)
     costs = blend_costs(alphas, n_t=n, Q=Q, distortion_fwd=dist0, distortion_bwd=dist1,
                         lambda_Q=lambda_Q, lambda_dist=lambda_dist, lambda_mid=lambda_mid,
                         texture_model=texture_model, prior=prior)
