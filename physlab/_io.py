@@ -17,6 +17,9 @@ def atomic_write(path, write, suffix=".tmp"):
     os.close(fd)
     try:
         write(tmp)
+        umask = os.umask(0)  # mkstemp makes 0600 files; give the usual 0666 & ~umask instead
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)
         os.replace(tmp, path)
     except BaseException:
         if os.path.exists(tmp):

@@ -95,7 +95,7 @@ def plot_image_matrix(images, alphas, t, path=None, diagonal=None, every=1, widt
             if i == n_t - 1:
                 ax.set_xlabel(f"α={alphas[k]:.2f}", fontsize=6)
             if j == 0:
-                ax.set_ylabel(f"t={t[i]:.1f}", fontsize=6)
+                ax.set_ylabel(f"t={t[i]:.3g}", fontsize=6)
     return fig
 
 

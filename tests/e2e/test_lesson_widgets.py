@@ -9,6 +9,9 @@ redrawn (and only there) and that no error shows up anywhere in the notebook:
 * lesson 01: move the ``dt`` slider and pick another integrator in the ``method`` dropdown;
 * lesson 04: two boxes; move ``stretch y`` in the first (element demo), then ``E`` in the last
   (ball push), whose redraw must leave the first box's figure alone.
+* lesson 06: move ``elbow`` then ``shoulder`` in the arm-dragging box; each shown figure must be
+  the one ``arm_pose_demo`` draws for the slider readouts (re-rendered here, pixel-compared), whose
+  title reports 0 flipped triangles; the limb box must stay untouched.
 
 Screenshots of the widget boxes (and the decoded PNGs they displayed) go to pytest's ``tmp_path``;
 their paths are printed (``-s``) and quoted in failure messages.
@@ -499,4 +502,88 @@ def _drive_lesson04(page, lab, shots_dir):
           f"{time.monotonic() - t0:.1f} s")
 
     assert page.locator(LIVE_BOX_SEL).count() == 2, "the number of interactive widgets changed"
+    _assert_no_errors(page, f"at the end (widget screenshots in {shots_dir})")
+
+
+LESSON06 = "06_skeleton_driven_deformation.ipynb"
+LESSON06_ARM_CONTROLS = ["shoulder (°)", "elbow (°)", "drawing style"]
+LESSON06_LIMB_CONTROLS = ["bend (°)", "method"]
+MAX_DIFFERING_PIXELS = 20  # a re-rendered figure may differ by antialiasing, not by a title digit
+
+
+@pytest.mark.e2e
+@pytest.mark.timeout(300)
+def test_lesson06_arm_widget_deforms_the_drawing_without_flips(lab, tmp_path):
+    _in_browser(lab, tmp_path, _drive_lesson06)
+
+
+def _callback_png(**params):
+    """``arm_pose_demo(**params)`` rendered in this process the way the kernel's inline backend
+    renders a Figure for the widget; returns (title, RGBA array)."""
+    import io
+
+    from IPython.core.pylabtools import print_figure
+    from matplotlib.image import imread
+
+    from physlab.demos.inbetween_deformation import arm_pose_demo
+
+    fig = arm_pose_demo(**params)
+    return fig.get_suptitle(), imread(io.BytesIO(print_figure(fig, "png", bbox_inches="tight")))
+
+
+def _assert_shows_arm_pose(src, shot, **params):
+    """The browser's widget image is the figure of ``arm_pose_demo(**params)``, whose title
+    reports 0 flipped triangles: the flip count the student sees is the one checked here."""
+    import io
+
+    import numpy as np
+    from matplotlib.image import imread
+
+    title, expected = _callback_png(**params)
+    shown = imread(io.BytesIO(_png_size(src)[0]))
+    assert shown.shape == expected.shape, (
+        f"widget figure {shown.shape} is not arm_pose_demo({params}) {expected.shape}; see {shot}")
+    differ = int(np.count_nonzero(np.abs(shown - expected).max(axis=-1) > 1.5 / 255))
+    assert differ <= MAX_DIFFERING_PIXELS, (
+        f"widget figure differs from arm_pose_demo({params}) in {differ} pixels; see {shot}")
+    m = re.search(r"flipped triangles (\d+)", title)
+    assert m and m.group(1) == "0", f"the figure's title reports flips: {title!r}; see {shot}"
+    print(f"[e2e] widget shows arm_pose_demo({params}) ({differ} pixels differ): {title!r}")
+
+
+def _drive_lesson06(page, lab, shots_dir):
+    t0 = time.monotonic()
+    (arm_cell, arm_box), (limb_cell, limb_box) = _open_and_run_all(page, lab, LESSON06, 2, t0)
+    for box, expected in ((arm_box, LESSON06_ARM_CONTROLS), (limb_box, LESSON06_LIMB_CONTROLS)):
+        assert _labels(box) == expected, f"widget controls {_labels(box)}, expected {expected}"
+    arm0, shot0 = _initial_figure(page, arm_cell, arm_box, shots_dir, "1_arm_initial", t0,
+                                  min_size=(500, 250))
+    limb0, limb_shot0 = _initial_figure(page, limb_cell, limb_box, shots_dir, "2_limb_initial", t0)
+    _assert_shows_arm_pose(arm0, shot0, shoulder_deg=-60.0, elbow_deg=-60.0)
+
+    # 1) Bend the elbow further: 8 steps of 5° to the left (each press is one committed solve).
+    elbow, el_before = _press_slider(arm_box, "elbow (°)", "ArrowLeft", 8, shot0)
+    arm1 = _wait_new_image(page, arm_box, arm0, "moving the 'elbow (°)' slider")
+    el_after = _readout(elbow)
+    shot1 = _snapshot(arm_box, shots_dir, "3_arm_elbow", arm1)
+    assert el_after == el_before - 40.0, (
+        f"elbow readout went {el_before} -> {el_after}; see {shot1}")
+    assert arm1 != arm0, f"arm figure unchanged after moving the elbow; see {shot0} and {shot1}"
+    _check_single_figure(arm_cell, arm_box, shot1)
+    _assert_shows_arm_pose(arm1, shot1, shoulder_deg=-60.0, elbow_deg=el_after)
+
+    # 2) Raise the shoulder: 12 steps of 5° to the left (arm above the head).
+    shoulder, sh_before = _press_slider(arm_box, "shoulder (°)", "ArrowLeft", 12, shot1)
+    arm2 = _wait_new_image(page, arm_box, arm1, "moving the 'shoulder (°)' slider")
+    sh_after = _readout(shoulder)
+    shot2 = _snapshot(arm_box, shots_dir, "4_arm_shoulder", arm2)
+    assert sh_after == sh_before - 60.0, (
+        f"shoulder readout went {sh_before} -> {sh_after}; see {shot2}")
+    assert arm2 not in (arm0, arm1), f"arm figure unchanged after moving the shoulder; see {shot2}"
+    _check_single_figure(arm_cell, arm_box, shot2)
+    _assert_shows_arm_pose(arm2, shot2, shoulder_deg=sh_after, elbow_deg=el_after)
+    assert _img_src(limb_box) == limb0, (
+        f"moving the arm sliders redrew the limb widget; see {limb_shot0}")
+    print(f"[e2e] shoulder {sh_before} -> {sh_after}, elbow {el_before} -> {el_after}: redrawn, "
+          f"0 flips, after {time.monotonic() - t0:.1f} s")
     _assert_no_errors(page, f"at the end (widget screenshots in {shots_dir})")
