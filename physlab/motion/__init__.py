@@ -4,13 +4,23 @@ motion generator.
 * :mod:`.skeleton` — :data:`JOINT_NAMES`, :data:`PARENTS`, :data:`KINEMATIC_CHAINS`,
   Euler angles and forward kinematics; joints arrays are ``(T, 22, 3)`` in metres, y up;
 * :mod:`.bvh` — :func:`read_bvh` / :func:`write_bvh` and :func:`retarget_to_smpl22` with the
-  joint mappings of the Bandai-Namco and CMU clips.
+  joint mappings of the Bandai-Namco and CMU clips;
+* :mod:`.features` — the redundant HumanML3D-style per-frame features (D = 137) with an exact
+  inverse, canonicalisation and normalisation statistics;
+* :mod:`.dataset` — Bandai-Namco clips (cached), action texts, 40-frame training windows,
+  Sketch2Anim's keypose + trajectory conditions (Sec. 3), the held-out split by take;
+* :mod:`.metrics` — foot-skating ratio (GMD), MPJPE, trajectory error, jerk (AUJ, PJ).
 
 Importing this package is cheap and never imports torch: modules that need torch import it
 themselves and are not imported here.
 """
 from .bvh import (BANDAI_NAMCO_MAPPING, CMU_MAPPING, CMU_MAX_MAPPING, CMU_SCALE, BVHMotion,
                   SMPL22Mapping, read_bvh, resample_local, retarget_to_smpl22, write_bvh)
+from . import metrics
+from .dataset import (TRAJECTORY_JOINT_NAMES, TRAJECTORY_JOINTS, Condition, MotionClip, Windows,
+                      action_text, condition_from_window, load_clips, make_windows,
+                      split_by_take)
+from .features import FEATURE_DIM, FeatureStats, canonicalize, features_to_joints, joints_to_features
 from .skeleton import (FOOT_JOINTS, JOINT_NAMES, KINEMATIC_CHAINS, PARENTS, bone_lengths,
                        euler_to_matrix, forward_kinematics, joint_index, topological_order)
 
@@ -19,4 +29,8 @@ __all__ = [
     "euler_to_matrix", "forward_kinematics", "topological_order", "BVHMotion", "read_bvh",
     "write_bvh", "resample_local", "SMPL22Mapping", "retarget_to_smpl22",
     "BANDAI_NAMCO_MAPPING", "CMU_MAPPING", "CMU_MAX_MAPPING", "CMU_SCALE",
+    "FEATURE_DIM", "FeatureStats", "canonicalize", "joints_to_features", "features_to_joints",
+    "TRAJECTORY_JOINTS", "TRAJECTORY_JOINT_NAMES", "MotionClip", "Windows", "Condition",
+    "load_clips", "action_text", "make_windows", "condition_from_window", "split_by_take",
+    "metrics",
 ]
