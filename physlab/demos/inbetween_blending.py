@@ -302,7 +302,7 @@ def flow_row_figure(result, row, alphas=(0.0, 0.25, 0.5, 0.75, 1.0), interpolato
     interpolator : FrameInterpolator, default ``FlowInterpolator()``.
     step : int, quiver spacing in px.
     """
-    from physlab.inbetween.interpolate import FlowInterpolator
+    from physlab.inbetween.frame_interpolation import FlowInterpolator
 
     n = len(result.t)
     row = _check_int(row, "row", 0, n - 1)

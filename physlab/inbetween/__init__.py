@@ -3,7 +3,7 @@
 Modules: :mod:`.skeleton` (2D skeletons, bone-angle interpolation), :mod:`.template`
 (mask → Triangle mesh with handle vertices), :mod:`.deform` (symmetric Dirichlet energy,
 Sobolev-preconditioned quasi-Newton with injectivity line search), :mod:`.skinning` (LBS with
-bounded biharmonic weights, ARAP: comparisons), :mod:`.interpolate` (optical-flow frame
+bounded biharmonic weights, ARAP: comparisons), :mod:`.frame_interpolation` (optical-flow frame
 interpolation, the RIFE stand-in), :mod:`.blend` (image matrix, blending costs, Dijkstra
 path), :mod:`.metrics` (PSNR, SSIM, Chamfer), :mod:`.baselines`, :mod:`.retarget` (BVH →
 drawing skeletons), :mod:`.pipeline` (:func:`inbetween`).

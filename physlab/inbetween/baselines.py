@@ -3,14 +3,14 @@
 * :func:`cross_dissolve` — fade from key 0 to key 1.
 * :func:`flow_interpolation` — a video frame interpolator applied directly to the two
   keyframes: the row ``α = t`` of an "image matrix" with a single pair. With the default
-  :class:`~physlab.inbetween.interpolate.FlowInterpolator` this is physlab's stand-in for the
+  :class:`~physlab.inbetween.frame_interpolation.FlowInterpolator` this is physlab's stand-in for the
   RIFE row of Table 1; pass another interpolator to compare others.
 """
 from __future__ import annotations
 
 import numpy as np
 
-from .interpolate import CrossDissolve, FlowInterpolator
+from .frame_interpolation import CrossDissolve, FlowInterpolator
 
 __all__ = ["cross_dissolve", "flow_interpolation"]
 

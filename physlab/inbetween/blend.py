@@ -61,7 +61,7 @@ import numpy as np
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
-from .interpolate import FlowInterpolator, as_image
+from .frame_interpolation import FlowInterpolator, as_image
 
 __all__ = [
     "ImageMatrix", "image_matrix", "row_flows", "render_path",
@@ -149,7 +149,7 @@ def image_matrix(fwd, bwd, alphas, interpolator=None, progress=False):
     fwd : (n_t, H, W, C) array or list of n_t images, ``I→(t)`` (texture of key 0).
     bwd : same shape, ``I←(t)`` (texture of key 1).
     alphas : (n_α,) increasing from 0 to 1, e.g. ``alpha_grid(n_t)[0]``.
-    interpolator : a :class:`~physlab.inbetween.interpolate.FrameInterpolator`; default
+    interpolator : a :class:`~physlab.inbetween.frame_interpolation.FrameInterpolator`; default
         ``FlowInterpolator()``. If it has ``interpolate_and_flow`` a row costs two flow
         estimates, otherwise three (``__call__`` and ``flow``).
     progress : bool, tqdm bar over rows.

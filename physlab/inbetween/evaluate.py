@@ -35,7 +35,7 @@ import numpy as np
 from . import metrics
 from .baselines import cross_dissolve, flow_interpolation
 from .blend import render_path
-from .interpolate import FlowInterpolator
+from .frame_interpolation import FlowInterpolator
 from .pipeline import inbetween
 
 __all__ = ["METHODS", "METRICS", "run_methods", "score_frames", "evaluate_pairs",

@@ -33,7 +33,7 @@ import numpy as np
 from scipy.ndimage import distance_transform_edt
 from skimage.metrics import structural_similarity
 
-from .interpolate import _LUMA, as_image, over_white
+from .frame_interpolation import _LUMA, as_image, over_white
 
 __all__ = ["psnr", "ssim", "chamfer", "ink_mask", "CD_SCALE", "lpips_available",
            "lpips_status"]

@@ -22,7 +22,7 @@ import numpy as np
 from .blend import (alpha_grid, blend_costs, blending_path, diagonal_path, image_matrix,
                     interpolation_quality, render_path, row_flows)
 from .deform import MAX_ITER, MU, TOL, SymmetricDirichletDeformer, flipped_count
-from .interpolate import FlowInterpolator
+from .frame_interpolation import FlowInterpolator
 from .skeleton import Skeleton, check_compatible, interpolate
 from .template import Template, as_rgba_float, build_template
 

@@ -8,7 +8,7 @@ from physlab.inbetween.blend import (BlendCosts, BlendPath, ImageMatrix, alpha_g
                                      blending_path, diagonal_path, image_matrix,
                                      interpolation_quality, path_cost, render_path, row_flows,
                                      select_frames, texture_quality)
-from physlab.inbetween.interpolate import CrossDissolve, FlowInterpolator
+from physlab.inbetween.frame_interpolation import CrossDissolve, FlowInterpolator
 
 
 # --------------------------------------------------------------------------- helpers

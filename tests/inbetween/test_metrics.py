@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from skimage.metrics import peak_signal_noise_ratio, structural_similarity
 
-from physlab.inbetween.interpolate import over_white
+from physlab.inbetween.frame_interpolation import over_white
 from physlab.inbetween.metrics import (CD_SCALE, chamfer, ink_mask, lpips_available, lpips_status,
                                        psnr, ssim)
 

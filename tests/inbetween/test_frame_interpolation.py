@@ -1,10 +1,10 @@
-"""Tests of physlab.inbetween.interpolate (and the baselines built on it)."""
+"""Tests of physlab.inbetween.frame_interpolation (and the baselines built on it)."""
 import numpy as np
 import pytest
 from scipy.ndimage import binary_erosion, gaussian_filter, map_coordinates
 
 from physlab.inbetween.baselines import cross_dissolve, flow_interpolation
-from physlab.inbetween.interpolate import (CrossDissolve, FlowInterpolator, FrameInterpolator,
+from physlab.inbetween.frame_interpolation import (CrossDissolve, FlowInterpolator, FrameInterpolator,
                                            as_image, flow_image, over_white)
 
 N = 96
