@@ -53,8 +53,9 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Any, Callable, NamedTuple, Optional, Sequence
+from typing import Any, NamedTuple
 
 import numpy as np
 import torch
@@ -87,10 +88,12 @@ class SchedulerConfig:
     beta_start: float = 1e-4            # β of the first step (DDPM Sec. 4: 1e-4)
     beta_end: float = 0.02              # β of the last step (DDPM Sec. 4: 0.02)
     beta_schedule: str = "linear"       # "linear" | "scaled_linear" | "cosine" (ignores beta_*)
-    prediction_type: str = "epsilon"    # network output: "epsilon" (Sketch2Anim) | "sample" | "v_prediction"
-    variance_type: str = "fixed_small"  # DDPM reverse variance: β̃_t "fixed_small" | β_t "fixed_large"
-    clip_sample: bool = False           # clip x̂₀ to ±clip_sample_range in the steps (images in [-1, 1]);
-    clip_sample_range: float = 1.0      # off for z-scored motion features
+    prediction_type: str = "epsilon"    # network output: "epsilon" (Sketch2Anim) | "sample"
+                                        # | "v_prediction"
+    variance_type: str = "fixed_small"  # DDPM reverse variance: β̃_t "fixed_small" | β_t
+                                        # "fixed_large"
+    clip_sample: bool = False           # clip x̂₀ to ±clip_sample_range in the steps (for images
+    clip_sample_range: float = 1.0      # in [-1, 1]); off for z-scored motion features
     timestep_spacing: str = "leading"   # inference timesteps: "leading" | "trailing" | "linspace"
     steps_offset: int = 0               # added to "leading" timesteps (Stable Diffusion / MLD: 1)
     set_alpha_to_one: bool = True       # DDIM's ᾱ after the last step: 1 (True) or ᾱ_0 (False)
@@ -110,8 +113,8 @@ class SchedulerConfig:
                 raise ValueError(f"{name} must be one of {allowed}, got {getattr(self, name)!r}")
         if not self.clip_sample_range > 0:
             raise ValueError(f"clip_sample_range must be > 0, got {self.clip_sample_range}")
-        if (isinstance(self.steps_offset, bool) or not isinstance(self.steps_offset, (int, np.integer))
-                or self.steps_offset < 0):
+        k = self.steps_offset
+        if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k < 0:
             raise ValueError(f"steps_offset must be an integer >= 0, got {self.steps_offset!r}")
 
 
@@ -198,7 +201,7 @@ class NoiseScheduler:
     timesteps : (S,) int64 tensor, descending; set by :meth:`set_timesteps` (initially all T)
     """
 
-    def __init__(self, config: Optional[SchedulerConfig] = None, **kwargs):
+    def __init__(self, config: SchedulerConfig | None = None, **kwargs):
         if config is not None and kwargs:
             raise ValueError("pass either a SchedulerConfig or keyword arguments, not both "
                              f"(got config and {sorted(kwargs)})")
@@ -223,10 +226,11 @@ class NoiseScheduler:
 
     def to_dict(self) -> dict:
         """The config as a plain JSON-serialisable dict (for checkpoints)."""
-        return dataclasses.asdict(self.config)
+        return {k: (v.item() if isinstance(v, np.generic) else v)
+                for k, v in dataclasses.asdict(self.config).items()}
 
     @classmethod
-    def from_dict(cls, d: dict) -> "NoiseScheduler":
+    def from_dict(cls, d: dict) -> NoiseScheduler:
         """Rebuild from :meth:`to_dict`; missing keys take their defaults."""
         known = {f.name for f in dataclasses.fields(SchedulerConfig)}
         unknown = sorted(set(d) - known)
@@ -254,7 +258,8 @@ class NoiseScheduler:
             raise ValueError(f"{name} must be an int or an integer tensor, got "
                              f"{type(t).__name__} {t!r}")
         if t.ndim > 1:
-            raise ValueError(f"{name} must be a scalar or a (B,) tensor, got shape {tuple(t.shape)}")
+            raise ValueError(f"{name} must be a scalar or a (B,) tensor, got shape "
+                             f"{tuple(t.shape)}")
         lo = -1 if allow_final else 0
         if t.numel() and (int(t.min()) < lo or int(t.max()) > T - 1):
             raise ValueError(f"{name} must lie in [{lo}, {T - 1}] (num_train_timesteps={T}), got "
@@ -285,7 +290,7 @@ class NoiseScheduler:
 
     # ------------------------------------------------------------------ forward process
 
-    def sample_timesteps(self, batch: int, generator: Optional[torch.Generator] = None,
+    def sample_timesteps(self, batch: int, generator: torch.Generator | None = None,
                          device=None) -> torch.Tensor:
         """Uniform training timesteps ``t ~ U{0, .., T-1}`` (DDPM Algorithm 1): ``(batch,)``
         int64 tensor."""
@@ -397,8 +402,8 @@ class NoiseScheduler:
         return mean, self._per_sample(var, x_t)
 
     def ddpm_step(self, model_output: torch.Tensor, t, x_t: torch.Tensor,
-                  generator: Optional[torch.Generator] = None, t_prev=None,
-                  noise: Optional[torch.Tensor] = None) -> StepOutput:
+                  generator: torch.Generator | None = None, t_prev=None,
+                  noise: torch.Tensor | None = None) -> StepOutput:
         """One ancestral sampling step x_t → x_{t_prev} (DDPM Algorithm 2).
 
         x̂₀ comes from the network output (Eq. (7) of Sketch2Anim for ε-prediction), is
@@ -434,7 +439,7 @@ class NoiseScheduler:
 
     # ------------------------------------------------------------------ DDIM
 
-    def set_timesteps(self, num_inference_steps: int, spacing: Optional[str] = None,
+    def set_timesteps(self, num_inference_steps: int, spacing: str | None = None,
                       device=None) -> torch.Tensor:
         """Choose ``S = num_inference_steps`` of the T training timesteps for sampling;
         store and return them as a descending ``(S,)`` int64 tensor (``self.timesteps``).
@@ -451,6 +456,8 @@ class NoiseScheduler:
 
         Each step goes from ``timesteps[i]`` to ``timesteps[i + 1]``, the last one to ``-1``
         (x₀). ``S = T`` with ``"leading"`` and no offset is every timestep (plain DDPM).
+        With very few steps "leading" starts far from pure noise (``S = 1`` gives ``[0]``);
+        use "trailing" there.
         """
         T = self.num_train_timesteps
         S = num_inference_steps
@@ -490,8 +497,8 @@ class NoiseScheduler:
         return 1.0 if self.config.set_alpha_to_one else float(self.alphas_cumprod[0])
 
     def ddim_step(self, model_output: torch.Tensor, t, t_prev, x_t: torch.Tensor,
-                  eta: float = 0.0, generator: Optional[torch.Generator] = None,
-                  noise: Optional[torch.Tensor] = None) -> StepOutput:
+                  eta: float = 0.0, generator: torch.Generator | None = None,
+                  noise: torch.Tensor | None = None) -> StepOutput:
         """One DDIM step x_t → x_{t_prev}, Song et al. 2021 Eq. (12)::
 
             x_prev = √ᾱ_prev x̂₀ + √(1 − ᾱ_prev − σ²) ε̂ + σ z,   σ = η σ_t   (Eq. (16))
@@ -515,9 +522,9 @@ class NoiseScheduler:
         x0, eps = self._x0_eps(model_output, t, x_t)                             # Eq. (9)
         x0 = self._clip(x0)
         a_prev = self._per_sample(self._alpha_bar_prev(t_prev, self._final_alpha_cumprod()),
-                                  None, x_t)
+                                  x_t)
         sigma = eta * self._per_sample(self.ddim_sigma(t, t_prev), x_t)     # Eq. (16)
-        direction = (1 - a_prev - sigma ** 2).clamp(min=0).sqrt() * eps  # "direction pointing to x_t"
+        direction = (1 - a_prev - sigma ** 2).clamp(min=0).sqrt() * eps  # "pointing to x_t"
         x_prev = a_prev.sqrt() * x0 + direction                                  # Eq. (12)
         if eta > 0:
             x_prev = x_prev + sigma * self._noise_like(x_t, generator, noise)    # Eq. (12)
@@ -526,11 +533,11 @@ class NoiseScheduler:
     # ------------------------------------------------------------------ sampling loop
 
     def sample(self, model_fn: Callable[[torch.Tensor, torch.Tensor, Any], torch.Tensor],
-               shape: Optional[Sequence[int]], steps: Optional[int] = None, method: str = "ddim",
-               guidance_scale: Optional[float] = None, cond: Any = None, uncond: Any = None,
-               generator: Optional[torch.Generator] = None, progress: bool = False,
-               callback: Optional[Callable[[int, int, torch.Tensor, torch.Tensor], None]] = None,
-               eta: float = 0.0, x_T: Optional[torch.Tensor] = None, device=None,
+               shape: Sequence[int] | None, steps: int | None = None, method: str = "ddim",
+               guidance_scale: float | None = None, cond: Any = None, uncond: Any = None,
+               generator: torch.Generator | None = None, progress: bool = False,
+               callback: Callable[[int, int, torch.Tensor, torch.Tensor], None] | None = None,
+               eta: float = 0.0, x_T: torch.Tensor | None = None, device=None,
                dtype: torch.dtype = torch.float32) -> torch.Tensor:
         """Draw samples by running the reverse process from x_T ~ N(0, I).
 
@@ -558,7 +565,8 @@ class NoiseScheduler:
         if steps is None:
             steps = 50 if method == "ddim" else self.num_train_timesteps
         timesteps = self.set_timesteps(steps)                                    # (S,) descending
-        if guidance_scale is not None and not bool(torch.isfinite(torch.as_tensor(guidance_scale)).all()):
+        if (guidance_scale is not None
+                and not bool(torch.isfinite(torch.as_tensor(guidance_scale)).all())):
             raise ValueError(f"guidance_scale must be finite or None, got {guidance_scale}")
         if x_T is None:
             if shape is None:
