@@ -1,0 +1,552 @@
+"""The Sketch2Anim motion generator: a text-conditioned denoiser, the trajectory ControlNet and
+the trajectory-aware keypose adapter (Sketch2Anim Sec. 4, Eqs. (1)–(4)).
+
+Design (and where it departs from the paper)
+-------------------------------------------
+* **Motion features, no VAE.** Sketch2Anim builds on MLD, whose denoiser works in the latent
+  space of a motion VAE. Here the denoiser works on the normalised
+  :mod:`~physlab.motion.features` rows directly (``x_t`` plays the role of ``z_t``): it is
+  simpler (one network, one training stage less), the decoder ``R(.)`` of Eqs. (6) and (8)
+  is the *exact* analytic inverse :func:`features_to_joints_torch` instead of a learned
+  decoder, and with ~2 k training windows a VAE would have little data to learn a good latent
+  space from.
+* **Frames vs. rows.** A window of ``N = 40`` joint frames has ``n_frames = 39`` feature rows
+  (row ``i`` is made from frames ``i`` and ``i + 1``); :func:`features_to_joints_torch`
+  returns all 40 frames (the last from the last row's joint velocities). Conditions live on
+  the 40 frames (:mod:`~physlab.motion.dataset`); :class:`FrameConditionEncoder` maps them to
+  the 39 rows by encoding the frames and mixing frames ``i`` and ``i + 1`` into row ``i``.
+* **Denoiser** ``eps_theta(x_t, t, a)``: a pre-LayerNorm transformer encoder over
+  ``1 + n_frames`` tokens: one condition token ``time_mlp(sinusoid(t)) + text_proj(a)`` (MLD
+  supp.: text embedding added to the time embedding and concatenated with the latent),
+  followed by the motion rows ``motion_in(x_t) + pos``. ε-prediction. Classifier-free
+  guidance (Eq. (14)): ``drop_text`` replaces ``a`` by a learned null embedding.
+* **ControlNet residuals** are added to the token stream after every block
+  (``h_i <- block_i(h_{i-1}) + r_i``), as MLD/OmniControl-style ControlNets do.
+* **Trajectory ControlNet** (Eq. (1)): a trainable copy of the denoiser's encoder (input
+  layers + blocks, initialised from the base weights) whose motion tokens get
+  ``E_tr(T)`` added — ``z'_t = z_t + E_tr(T)`` written in token space (adding a 137-d
+  embedding before the linear ``motion_in`` is the special case ``W E``); ``E_tr`` ends in a
+  zero-initialised layer so the copy starts as an exact copy. Each block output goes through
+  a zero-initialised linear layer ``Z_i``: residuals ``r_i``.
+* **Keypose adapter** (Eqs. (2)–(4)): another trainable copy whose condition token carries
+  the grounded action embedding ``a' = a + E_k(K)`` (Eq. (2), in token space), whose blocks
+  receive the ControlNet residuals ``r_i`` (``h_i <- block_i(h_{i-1}) + r_i``, Eq. (3)) and
+  whose zero-initialised outputs ``r'_i = Z'_i(h_i)`` are added to the frozen base denoiser
+  (Eq. (4)). Before training, :class:`ControlledDenoiser` therefore returns exactly the base
+  denoiser's output.
+* **Single ControlNet** (Table 2 ablation): ``single_controlnet=True`` puts the keypose into
+  its frame of a unified per-frame condition matrix, one ControlNet encodes it and its
+  residuals go straight into the base.
+
+Condition encoders are constructor arguments (any module with the same call signature), so
+a later 2D variant (``E^2D_tr``, ``E^2D_k``, Sec. 5) can replace the 3D ones.
+
+Shapes: ``B`` batch, ``T = n_frames`` feature rows (39), ``N = T + 1`` frames (40),
+``D = feature_dim`` (137), ``C = d_model``, ``J = 22`` joints, ``R = 6`` trajectory joints.
+"""
+from __future__ import annotations
+
+import copy
+import dataclasses
+import math
+from dataclasses import dataclass
+
+import torch
+import torch.nn.functional as F
+from torch import nn
+
+from .dataset import TRAJECTORY_JOINTS
+from .features import FEATURE_DIM, LOCAL_VEL, N_JOINTS, RIC, ROOT_ANG_VEL, ROOT_HEIGHT, ROOT_LIN_VEL
+
+__all__ = [
+    "ControlledDenoiser",
+    "DenoiserConfig",
+    "FrameConditionEncoder",
+    "KeyposeAdapter",
+    "KeyposeEncoder",
+    "MotionDenoiser",
+    "TrajectoryControlNet",
+    "check_condition",
+    "count_parameters",
+    "features_to_joints_torch",
+    "timestep_embedding",
+]
+
+N_TRAJ = len(TRAJECTORY_JOINTS)
+
+
+@dataclass
+class DenoiserConfig:
+    """Everything needed to rebuild the networks; saved in every checkpoint.
+
+    Default size (measured on 2 CPU cores, batch 64): base 916 k parameters (3.7 MB fp32),
+    ~400–450 windows/s; base + ControlNet + adapter 3.31 M parameters (2.39 M trainable),
+    ~145 windows/s. ``d_model=256`` would be ~2.5x slower in the base stage and ~10x in the
+    control stage.
+    """
+
+    feature_dim: int = FEATURE_DIM  # D: feature columns per row (features.FEATURE_DIM)
+    n_frames: int = 39              # T: feature rows = 40 joint frames - 1 (Sketch2Anim N=40)
+    d_model: int = 128              # C: token width (256: ~2.5x slower base, ~10x control)
+    n_heads: int = 4                # attention heads (C must be divisible by it)
+    n_layers: int = 4               # encoder blocks (Sketch2Anim supp. E: 4 in ControlNet/adapter)
+    ff: int = 512                   # hidden width of each block's MLP
+    dropout: float = 0.1            # dropout in attention / MLP / embeddings
+    text_dim: int = 384             # width of the action embedding a (MiniLM, text.EMBED_DIM)
+    cond_drop_prob: float = 0.1     # p(text -> null) in training, for CFG (Sketch2Anim Eq. 14)
+    max_timesteps: int = 1000       # diffusion steps T_diff the time embedding is built for
+    cond_layers: int = 1            # transformer layers in each condition encoder (supp. E: 1)
+
+    def __post_init__(self):
+        for name in ("feature_dim", "n_frames", "d_model", "n_heads", "n_layers", "ff",
+                     "text_dim", "max_timesteps", "cond_layers"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, int) or v < 1:
+                raise ValueError(f"DenoiserConfig.{name} must be an integer >= 1, got {v!r}")
+        if self.d_model % self.n_heads:
+            raise ValueError(f"d_model ({self.d_model}) must be divisible by n_heads "
+                             f"({self.n_heads})")
+        if self.d_model % 2:
+            raise ValueError(f"d_model must be even (sinusoidal embedding), got {self.d_model}")
+        for name in ("dropout", "cond_drop_prob"):
+            if not 0.0 <= getattr(self, name) < 1.0:
+                raise ValueError(f"DenoiserConfig.{name} must lie in [0, 1), got "
+                                 f"{getattr(self, name)}")
+
+    @property
+    def n_joint_frames(self):
+        """N: joint frames of a window (= n_frames + 1)."""
+        return self.n_frames + 1
+
+    def to_dict(self):
+        return dataclasses.asdict(self)
+
+    @classmethod
+    def from_dict(cls, d):
+        known = {f.name for f in dataclasses.fields(cls)}
+        unknown = sorted(set(d) - known)
+        if unknown:
+            raise ValueError(f"unknown DenoiserConfig keys {unknown}; expected a subset of "
+                             f"{sorted(known)}")
+        return cls(**d)
+
+
+def count_parameters(module, trainable_only=False):
+    """Number of parameters of a module (only those with ``requires_grad`` if asked)."""
+    return sum(p.numel() for p in module.parameters() if p.requires_grad or not trainable_only)
+
+
+# ----------------------------------------------------------------------------- features -> joints
+
+
+def _rotate_y_torch(v, angle):
+    """``R_y(angle) v`` for v ``(..., 3)`` and angle broadcastable to ``v[..., 0]``."""
+    c, s = torch.cos(angle), torch.sin(angle)
+    x, y, z = v[..., 0], v[..., 1], v[..., 2]
+    return torch.stack([c * x + s * z, y, -s * x + c * z], dim=-1)
+
+
+def features_to_joints_torch(features, include_last=True):
+    """Differentiable :func:`~physlab.motion.features.features_to_joints` for a batch, from
+    the canonical start (heading 0, pelvis at ``x = z = 0``). Sketch2Anim's ``R(.)``
+    (Eq. (6)).
+
+    Parameters
+    ----------
+    features : (B, T, D) tensor of denormalised feature rows (D = 137).
+    include_last : bool, also return frame ``T`` from the last joint velocities.
+
+    Returns
+    -------
+    (B, T + 1, 22, 3) tensor (``(B, T, 22, 3)`` without the last frame), metres.
+    """
+    if features.ndim != 3 or features.shape[-1] != FEATURE_DIM:
+        raise ValueError(f"features must have shape (B, T, {FEATURE_DIM}), got "
+                         f"{tuple(features.shape)}")
+    B, n, _ = features.shape
+    if n == 0:
+        raise ValueError("features has no rows; a motion of T frames has T-1 rows")
+    f = features
+    ang = f[..., ROOT_ANG_VEL.start]                                       # (B, T)
+    theta = torch.cat([torch.zeros_like(ang[:, :1]), torch.cumsum(ang[:, :-1], dim=1)], dim=1)
+    lin = f[..., ROOT_LIN_VEL]                                             # (B, T, 2)
+    step = torch.stack([lin[..., 0], torch.zeros_like(lin[..., 0]), lin[..., 1]], dim=-1)
+    step = _rotate_y_torch(step, theta)                                    # (B, T, 3) world
+    root = torch.cat([torch.zeros_like(step[:, :1]), torch.cumsum(step[:, :-1], dim=1)], dim=1)
+    ric = f[..., RIC].reshape(B, n, N_JOINTS - 1, 3)                       # (B, T, 21, 3)
+    body = _rotate_y_torch(ric, theta[..., None])                          # (B, T, 21, 3)
+    body = body + root[:, :, None] * body.new_tensor([1.0, 0.0, 1.0])
+    pelvis = torch.stack([root[..., 0], f[..., ROOT_HEIGHT.start], root[..., 2]], dim=-1)
+    x = torch.cat([pelvis[:, :, None], body], dim=2)                       # (B, T, 22, 3)
+    if include_last:
+        vel = f[:, -1, LOCAL_VEL].reshape(B, N_JOINTS, 3)                  # (B, 22, 3)
+        last = x[:, -1] + _rotate_y_torch(vel, theta[:, -1, None])         # (B, 22, 3)
+        x = torch.cat([x, last[:, None]], dim=1)                           # (B, T+1, 22, 3)
+    return x
+
+
+# ----------------------------------------------------------------------------- building blocks
+
+
+def timestep_embedding(t, dim, max_period=10000):
+    """Sinusoidal embedding of integer timesteps (Vaswani et al. 2017; DDPM): ``(B,)`` ->
+    ``(B, dim)`` with ``[cos(t w_k), sin(t w_k)]``, ``w_k = max_period^(-k / (dim/2))``."""
+    half = dim // 2
+    freqs = torch.exp(-math.log(max_period) * torch.arange(half, dtype=torch.float32,
+                                                           device=t.device) / half)
+    args = t.float()[:, None] * freqs[None]                                # (B, dim/2)
+    return torch.cat([torch.cos(args), torch.sin(args)], dim=-1)           # (B, dim)
+
+
+class SelfAttention(nn.Module):
+    """Multi-head self-attention written out (nanoGPT style, not causal). Written by hand
+    rather than ``nn.MultiheadAttention``, whose inference fast path is taken or not
+    depending on ``requires_grad`` and changes results by ~1e-6: the zero-init property
+    (controlled output == base output) is then exact."""
+
+    def __init__(self, d_model, n_heads, dropout):
+        super().__init__()
+        self.n_heads = n_heads
+        self.qkv = nn.Linear(d_model, 3 * d_model)
+        self.proj = nn.Linear(d_model, d_model)
+        self.attn_drop = nn.Dropout(dropout)
+
+    def forward(self, h):                                                  # (B, L, C)
+        B, L, C = h.shape
+        q, k, v = self.qkv(h).split(C, dim=2)                              # 3 x (B, L, C)
+        q, k, v = (u.view(B, L, self.n_heads, C // self.n_heads).transpose(1, 2)
+                   for u in (q, k, v))                                     # (B, H, L, C/H)
+        att = (q @ k.transpose(-2, -1)) / math.sqrt(k.shape[-1])           # (B, H, L, L)
+        att = self.attn_drop(att.softmax(dim=-1))
+        y = (att @ v).transpose(1, 2).reshape(B, L, C)                     # (B, L, C)
+        return self.proj(y)
+
+
+class Block(nn.Module):
+    """Pre-LayerNorm transformer encoder block: ``h + attn(ln(h))``, then ``h + mlp(ln(h))``."""
+
+    def __init__(self, d_model, n_heads, ff, dropout):
+        super().__init__()
+        self.ln1 = nn.LayerNorm(d_model)
+        self.attn = SelfAttention(d_model, n_heads, dropout)
+        self.ln2 = nn.LayerNorm(d_model)
+        self.mlp = nn.Sequential(nn.Linear(d_model, ff), nn.GELU(), nn.Linear(ff, d_model),
+                                 nn.Dropout(dropout))
+        self.drop = nn.Dropout(dropout)
+
+    def forward(self, h):                                                  # (B, L, C)
+        h = h + self.drop(self.attn(self.ln1(h)))
+        return h + self.mlp(self.ln2(h))                                   # (B, L, C)
+
+
+def _zero_linear(d_in, d_out):
+    """A linear layer with zero weight and bias (ControlNet's 'zero convolution' Z)."""
+    lin = nn.Linear(d_in, d_out)
+    nn.init.zeros_(lin.weight)
+    nn.init.zeros_(lin.bias)
+    return lin
+
+
+class DenoiserEncoder(nn.Module):
+    """Input layers and transformer blocks of the denoiser (the part ControlNet copies)."""
+
+    def __init__(self, cfg: DenoiserConfig):
+        super().__init__()
+        C = cfg.d_model
+        self.d_model = C
+        self.motion_in = nn.Linear(cfg.feature_dim, C)
+        self.pos = nn.Parameter(torch.randn(1, cfg.n_frames + 1, C) * 0.02)   # cond + rows
+        self.time_mlp = nn.Sequential(nn.Linear(C, C), nn.SiLU(), nn.Linear(C, C))
+        self.text_proj = nn.Linear(cfg.text_dim, C)
+        self.null_text = nn.Parameter(torch.zeros(cfg.text_dim))   # a of the unconditional model
+        self.drop = nn.Dropout(cfg.dropout)
+        self.blocks = nn.ModuleList([Block(C, cfg.n_heads, cfg.ff, cfg.dropout)
+                                     for _ in range(cfg.n_layers)])
+
+    def tokens(self, x_t, t, text_emb, drop_text=None, motion_extra=None, cond_extra=None):
+        """Input tokens ``(B, 1 + T, C)``: the condition token (time + text, plus
+        ``cond_extra`` (B, C)) and the motion rows (plus ``motion_extra`` (B, T, C))."""
+        if drop_text is not None:
+            drop = drop_text.to(torch.bool).reshape(-1, 1)                 # (B, 1)
+            text_emb = torch.where(drop, self.null_text.expand_as(text_emb), text_emb)
+        c = self.time_mlp(timestep_embedding(t, self.d_model)) + self.text_proj(text_emb)  # (B, C)
+        if cond_extra is not None:
+            c = c + cond_extra
+        m = self.motion_in(x_t)                                            # (B, T, C)
+        if motion_extra is not None:
+            m = m + motion_extra
+        h = torch.cat([c[:, None], m], dim=1) + self.pos                   # (B, 1+T, C)
+        return self.drop(h)
+
+    def run_blocks(self, h, residuals=None):
+        """Run the blocks, adding ``residuals[i]`` (B, 1+T, C) after block ``i``; returns the
+        list of block outputs (each (B, 1+T, C))."""
+        outs = []
+        for i, block in enumerate(self.blocks):
+            h = block(h)
+            if residuals is not None:
+                h = h + residuals[i]
+            outs.append(h)
+        return outs
+
+
+def _check_inputs(x_t, t, text_emb, cfg, drop_text=None):
+    if x_t.ndim != 3 or x_t.shape[1:] != (cfg.n_frames, cfg.feature_dim):
+        raise ValueError(f"x_t must have shape (B, {cfg.n_frames}, {cfg.feature_dim}) "
+                         f"(batch, feature rows, features), got {tuple(x_t.shape)}")
+    B = x_t.shape[0]
+    if not torch.is_tensor(t) or t.shape != (B,) or t.is_floating_point():
+        raise ValueError(f"t must be a ({B},) integer tensor of timesteps, got "
+                         f"{getattr(t, 'shape', t)!r}")
+    if t.numel() and (int(t.min()) < 0 or int(t.max()) >= cfg.max_timesteps):
+        raise ValueError(f"t must lie in 0..{cfg.max_timesteps - 1} (max_timesteps), got "
+                         f"values in {int(t.min())}..{int(t.max())}")
+    if text_emb.shape != (B, cfg.text_dim):
+        raise ValueError(f"text_emb must have shape ({B}, {cfg.text_dim}) (one action embedding "
+                         f"per sample, see physlab.motion.text), got {tuple(text_emb.shape)}")
+    if drop_text is not None and tuple(drop_text.shape) != (B,):
+        raise ValueError(f"drop_text must be None or a ({B},) bool tensor, got "
+                         f"{tuple(drop_text.shape)}")
+    if not torch.isfinite(x_t).all():
+        raise ValueError("x_t contains NaN or inf")
+    if not torch.isfinite(text_emb).all():
+        raise ValueError("text_emb contains NaN or inf")
+
+
+class MotionDenoiser(nn.Module):
+    """``eps_theta(x_t, t, a)``: text-conditioned ε-prediction transformer over feature rows."""
+
+    def __init__(self, cfg: DenoiserConfig):
+        super().__init__()
+        self.config = cfg
+        self.encoder = DenoiserEncoder(cfg)
+        self.ln_f = nn.LayerNorm(cfg.d_model)
+        self.head = nn.Linear(cfg.d_model, cfg.feature_dim)
+
+    def forward(self, x_t, t, text_emb, drop_text=None, residuals=None):
+        """Predicted noise.
+
+        Parameters
+        ----------
+        x_t : (B, T, D) noisy normalised features; t : (B,) int64 timesteps;
+        text_emb : (B, text_dim) action embeddings a;
+        drop_text : None or (B,) bool, True -> unconditional (null text), for CFG;
+        residuals : None or list of n_layers tensors (B, 1+T, C) added after each block.
+
+        Returns
+        -------
+        (B, T, D) tensor ε̂.
+        """
+        _check_inputs(x_t, t, text_emb, self.config, drop_text)
+        if residuals is not None and len(residuals) != len(self.encoder.blocks):
+            raise ValueError(f"need one residual per block ({len(self.encoder.blocks)}), got "
+                             f"{len(residuals)}")
+        h = self.encoder.tokens(x_t, t, text_emb, drop_text)               # (B, 1+T, C)
+        h = self.encoder.run_blocks(h, residuals)[-1]                      # (B, 1+T, C)
+        return self.head(self.ln_f(h[:, 1:]))                              # (B, T, D)
+
+
+# ----------------------------------------------------------------------------- conditions
+
+
+class FrameConditionEncoder(nn.Module):
+    """Per-frame condition ``(B, N, F)`` -> per-row embedding ``(B, N-1, C)``: a linear
+    input layer, ``cond_layers`` transformer blocks over the N frames, then row ``i`` =
+    ``Linear([e_i, e_{i+1}])`` (a feature row is built from frames i and i+1). The output
+    layer is zero-initialised, so a fresh ControlNet starts as an exact copy of the encoder.
+    This is ``E_tr`` (Eq. (1)) with ``F = 6*3 + 6`` (positions + mask); a 2D variant would
+    use ``F = 6*2 + 6``."""
+
+    def __init__(self, in_dim, cfg: DenoiserConfig):
+        super().__init__()
+        C = cfg.d_model
+        self.in_dim = in_dim
+        self.inp = nn.Linear(in_dim, C)
+        self.pos = nn.Parameter(torch.randn(1, cfg.n_joint_frames, C) * 0.02)
+        self.blocks = nn.ModuleList([Block(C, cfg.n_heads, cfg.ff, cfg.dropout)
+                                     for _ in range(cfg.cond_layers)])
+        self.out = _zero_linear(2 * C, C)
+
+    def forward(self, frames):                                             # (B, N, F)
+        e = self.inp(frames) + self.pos                                    # (B, N, C)
+        for block in self.blocks:
+            e = block(e)
+        return self.out(torch.cat([e[:, :-1], e[:, 1:]], dim=-1))          # (B, N-1, C)
+
+
+def trajectory_frames(trajectory, mask):
+    """``(B, N, 6, 3)`` trajectory and ``(B, N, 6)`` mask -> ``(B, N, 24)`` per-frame input
+    of :class:`FrameConditionEncoder` (positions zeroed where the mask is False)."""
+    m = mask.to(trajectory.dtype)
+    traj = trajectory * m[..., None]                                       # (B, N, 6, 3)
+    return torch.cat([traj.flatten(2), m], dim=-1)                         # (B, N, 24)
+
+
+class KeyposeEncoder(nn.Module):
+    """``E_k(K)`` (Eq. (2)): keypose ``(B, 22, 3)`` + key frame ``(B,)`` -> ``(B, C)``.
+
+    The pose is made pelvis-relative in x and z (the keypose gives no global placement,
+    Sec. 4.2; heights kept), each joint is a token (position + learned joint embedding), one
+    transformer block mixes them, the tokens are mean-pooled and a learned embedding of the
+    key frame index is added. Zero-initialised output layer."""
+
+    def __init__(self, cfg: DenoiserConfig, coord_dim=3):
+        super().__init__()
+        C = cfg.d_model
+        self.coord_dim = coord_dim
+        self.inp = nn.Linear(coord_dim, C)
+        self.joint = nn.Parameter(torch.randn(1, N_JOINTS, C) * 0.02)
+        self.frame = nn.Embedding(cfg.n_joint_frames, C)
+        self.blocks = nn.ModuleList([Block(C, cfg.n_heads, cfg.ff, cfg.dropout)
+                                     for _ in range(cfg.cond_layers)])
+        self.out = _zero_linear(C, C)
+
+    def forward(self, keypose, key_frame):                                 # (B, J, 3), (B,)
+        rel = keypose.clone()
+        rel[..., 0] = keypose[..., 0] - keypose[:, :1, 0]
+        rel[..., 2] = keypose[..., 2] - keypose[:, :1, 2]
+        e = self.inp(rel) + self.joint                                     # (B, J, C)
+        for block in self.blocks:
+            e = block(e)
+        return self.out(e.mean(dim=1) + self.frame(key_frame))             # (B, C)
+
+
+def unified_frames(trajectory, mask, keypose, key_frame):
+    """Single-ControlNet condition (Table 2): trajectory, mask, the keypose written into its
+    frame (``K_3D``, zeros elsewhere) and a one-hot key frame: ``(B, N, 24 + 66 + 1)``."""
+    N = mask.shape[1]
+    onehot = F.one_hot(key_frame, N).to(trajectory.dtype)                  # (B, N)
+    dense = onehot[..., None] * keypose.flatten(1)[:, None]                # (B, N, 66)
+    return torch.cat([trajectory_frames(trajectory, mask), dense, onehot[..., None]], dim=-1)
+
+
+def check_condition(cond, batch, n_frames):
+    """Validate a condition dict (``trajectory`` (B, N, 6, 3), ``traj_mask`` (B, N, 6) bool,
+    ``keypose`` (B, 22, 3), ``key_frame`` (B,) int in 0..N-1); ValueError saying what is
+    wrong."""
+    N = n_frames + 1
+    need = {"trajectory": (batch, N, N_TRAJ, 3), "traj_mask": (batch, N, N_TRAJ),
+            "keypose": (batch, N_JOINTS, 3), "key_frame": (batch,)}
+    if not isinstance(cond, dict):
+        raise TypeError(f"cond must be a dict with keys {sorted(need)}, got "
+                         f"{type(cond).__name__}")
+    missing = sorted(set(need) - set(cond))
+    if missing:
+        raise ValueError(f"cond is missing {missing}; build it with physlab.motion.train."
+                         f"condition_batch")
+    for k, shape in need.items():
+        if tuple(cond[k].shape) != shape:
+            hint = (f" ({N_TRAJ} trajectory joints {TRAJECTORY_JOINTS} in dataset order)"
+                    if k in ("trajectory", "traj_mask") else
+                    f" ({N_JOINTS} joints)" if k == "keypose" else "")
+            raise ValueError(f"cond[{k!r}] must have shape {shape}{hint}, got "
+                             f"{tuple(cond[k].shape)}")
+    for k in ("trajectory", "keypose"):
+        if not torch.isfinite(cond[k]).all():
+            raise ValueError(f"cond[{k!r}] contains NaN or inf")
+    kf = cond["key_frame"]
+    if kf.is_floating_point() or (kf.numel() and (int(kf.min()) < 0 or int(kf.max()) >= N)):
+        raise ValueError(f"cond['key_frame'] must hold integer frame indices in 0..{N - 1}")
+
+
+class TrajectoryControlNet(nn.Module):
+    """``r = F_tr(z_t + E_tr(T), t, a)`` (Eq. (1)): a trainable copy of the base encoder
+    plus one zero-initialised linear layer ``Z_i`` per block.
+
+    Parameters
+    ----------
+    base : :class:`MotionDenoiser` whose encoder is copied (weights included).
+    cond_encoder : module ``(B, N, F) -> (B, N-1, C)``; default
+        ``FrameConditionEncoder(24)`` on :func:`trajectory_frames`.
+    """
+
+    def __init__(self, base: MotionDenoiser, cond_encoder=None):
+        super().__init__()
+        cfg = base.config
+        self.encoder = copy.deepcopy(base.encoder)
+        for p in self.encoder.parameters():
+            p.requires_grad_(True)
+        self.cond_encoder = cond_encoder or FrameConditionEncoder(3 * N_TRAJ + N_TRAJ, cfg)
+        self.zero = nn.ModuleList([_zero_linear(cfg.d_model, cfg.d_model)
+                                   for _ in range(cfg.n_layers)])
+
+    def forward(self, x_t, t, text_emb, frames, drop_text=None):
+        """``frames`` (B, N, F) per-frame condition -> list of residuals (B, 1+T, C)."""
+        e = self.cond_encoder(frames)                                      # (B, T, C)
+        h = self.encoder.tokens(x_t, t, text_emb, drop_text, motion_extra=e)  # Eq. (1) z'_t
+        return [z(o) for z, o in zip(self.zero, self.encoder.run_blocks(h))]
+
+
+class KeyposeAdapter(nn.Module):
+    """``r' = F_k(z_t, t, r, a')``, ``a' = a + E_k(K)`` (Eqs. (2)–(3)): a trainable copy of
+    the base encoder whose blocks receive the ControlNet residuals ``r`` and whose outputs go
+    through zero-initialised linear layers ``Z'_i``."""
+
+    def __init__(self, base: MotionDenoiser, keypose_encoder=None):
+        super().__init__()
+        cfg = base.config
+        self.encoder = copy.deepcopy(base.encoder)
+        for p in self.encoder.parameters():
+            p.requires_grad_(True)
+        self.keypose_encoder = keypose_encoder or KeyposeEncoder(cfg)
+        self.zero = nn.ModuleList([_zero_linear(cfg.d_model, cfg.d_model)
+                                   for _ in range(cfg.n_layers)])
+
+    def forward(self, x_t, t, text_emb, keypose, key_frame, residuals, drop_text=None):
+        k = self.keypose_encoder(keypose, key_frame)                       # (B, C)  E_k(K)
+        h = self.encoder.tokens(x_t, t, text_emb, drop_text, cond_extra=k)  # Eq. (2) a'
+        outs = self.encoder.run_blocks(h, residuals)                        # Eq. (3)
+        return [z(o) for z, o in zip(self.zero, outs)]
+
+
+class ControlledDenoiser(nn.Module):
+    """Frozen base denoiser + trajectory ControlNet + keypose adapter (Eq. (4)):
+    ``eps = eps_theta(x_t, t, a; residuals = r')``.
+
+    Parameters
+    ----------
+    base : trained :class:`MotionDenoiser`; frozen (``requires_grad=False``, kept in eval
+        mode so its dropout is off).
+    single_controlnet : bool, the Table 2 "Single ControlNet" ablation: one ControlNet over
+        the unified trajectory + keypose matrix (:func:`unified_frames`), no adapter.
+    traj_encoder, keypose_encoder : optional replacements of ``E_tr`` / ``E_k`` (e.g. 2D).
+    """
+
+    def __init__(self, base: MotionDenoiser, single_controlnet=False, traj_encoder=None,
+                 keypose_encoder=None):
+        super().__init__()
+        self.config = base.config
+        self.single_controlnet = bool(single_controlnet)
+        self.base = base
+        for p in self.base.parameters():
+            p.requires_grad_(False)
+        if self.single_controlnet:
+            enc = traj_encoder or FrameConditionEncoder(4 * N_TRAJ + 3 * N_JOINTS + 1,
+                                                        base.config)
+            self.controlnet = TrajectoryControlNet(base, enc)
+            self.adapter = None
+        else:
+            self.controlnet = TrajectoryControlNet(base, traj_encoder)
+            self.adapter = KeyposeAdapter(base, keypose_encoder)
+        self.base.eval()
+
+    def train(self, mode=True):
+        super().train(mode)
+        self.base.eval()                                   # the frozen base never drops out
+        return self
+
+    def forward(self, x_t, t, text_emb, cond, drop_text=None):
+        """ε̂ ``(B, T, D)`` for noisy features ``x_t`` (B, T, D), timesteps ``t`` (B,),
+        action embeddings ``text_emb`` (B, text_dim) and a condition dict (see
+        :func:`check_condition`)."""
+        _check_inputs(x_t, t, text_emb, self.config, drop_text)
+        check_condition(cond, x_t.shape[0], self.config.n_frames)
+        traj, mask = cond["trajectory"], cond["traj_mask"]
+        if self.single_controlnet:
+            frames = unified_frames(traj, mask, cond["keypose"], cond["key_frame"])
+            res = self.controlnet(x_t, t, text_emb, frames, drop_text)
+        else:
+            r = self.controlnet(x_t, t, text_emb, trajectory_frames(traj, mask), drop_text)
+            res = self.adapter(x_t, t, text_emb, cond["keypose"], cond["key_frame"], r,
+                               drop_text)                                   # r'
+        return self.base(x_t, t, text_emb, drop_text, residuals=res)        # Eq. (4)

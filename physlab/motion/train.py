@@ -1,0 +1,613 @@
+"""Training of the motion generator: stage ``base`` (text-conditioned denoiser, Sketch2Anim's
+pre-trained MLD stand-in) and stage ``control`` (trajectory ControlNet + keypose adapter on
+the frozen base, Sketch2Anim Sec. 4.3, Eqs. (5)–(9)).
+
+Run::
+
+    python -m physlab.motion.train --stage base --steps 8000 --out runs/base.pt
+    python -m physlab.motion.train --stage control --base-ckpt runs/base.pt --steps 4000 \\
+        --out runs/control.pt
+    torchrun --nproc_per_node=2 -m physlab.motion.train --stage base ...   # DDP, gloo
+    python -m physlab.motion.train --stage base --smoke --out /tmp/smoke.pt # seconds
+
+On 2 CPU cores with the default model (batch 64, one process, 2 threads) the base stage
+runs at ~400–450 windows/s (~6.5 steps/s: 8000 steps ≈ 21 min) and the control stage at
+~145 windows/s (~2.2 steps/s: 4000 steps ≈ 30 min); ``torchrun`` with two 1-thread
+processes was not faster (~380 / ~130 windows/s). There are 1807 training windows (take 001,
+stride 10).
+
+Every flag is a field of :class:`TrainConfig` or :class:`~physlab.motion.model.DenoiserConfig`
+(``--d-model 128`` …), and :func:`train` takes the same names as keyword arguments.
+
+A checkpoint (``torch.save`` dict, written atomically) holds everything needed to generate
+and to resume: ``stage``, ``model_config``, ``train_config``, ``model`` (state dict; for the
+control stage the whole :class:`ControlledDenoiser`, frozen base included), ``optimizer``,
+``step``, per-rank ``rng`` states, ``feature_stats`` (mean / std), ``scheduler``
+(:meth:`NoiseScheduler.to_dict`), ``text_cache`` (:meth:`EmbeddingCache.state_dict`, so known
+action texts never need the text encoder) and ``param_digests`` (one sha256 of the
+parameters per DDP rank). :func:`load_model` rebuilds the network from it;
+:func:`export_weights` writes an inference-only copy (no optimizer, fp16 by default).
+"""
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import hashlib
+import math
+import os
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import torch
+import torch.nn.functional as F
+
+from physlab._io import atomic_write
+
+from .dataset import (
+    TRAJECTORY_JOINTS,
+    load_clips,
+    make_windows,
+    random_condition,
+    read_labels,
+    split_by_take,
+)
+from .diffusion import NoiseScheduler, SchedulerConfig
+from .features import FeatureStats, joints_to_features
+from .model import (
+    ControlledDenoiser,
+    DenoiserConfig,
+    MotionDenoiser,
+    count_parameters,
+    features_to_joints_torch,
+)
+from .skeleton import JOINT_NAMES
+
+__all__ = [
+    "SCHEDULERS",
+    "SMOKE_MODEL",
+    "TrainConfig",
+    "condition_batch",
+    "control_losses",
+    "export_weights",
+    "hash_encoder",
+    "load_checkpoint",
+    "load_model",
+    "main",
+    "prepare_data",
+    "save_checkpoint",
+    "train",
+]
+
+CHECKPOINT_KIND = "physlab.motion.train"
+CHECKPOINT_VERSION = 1
+
+#: Noise schedules by name. "mld": MLD's (Chen et al. 2023) scaled-linear schedule
+#: (sqrt(ᾱ_T) ≈ 0.068, so x̂₀ of Eq. (7) is amplified at most ~15x at the noisiest step in
+#: L_tr / L_key); "ddpm": Ho et al.'s linear 1e-4..0.02 (sqrt(ᾱ_T) ≈ 0.006).
+SCHEDULERS = {
+    "mld": {"beta_start": 0.00085, "beta_end": 0.012, "beta_schedule": "scaled_linear",
+            "set_alpha_to_one": False, "steps_offset": 1},
+    "ddpm": {},
+}
+
+#: Model of ``--smoke`` runs: a few seconds on a CPU.
+SMOKE_MODEL = {"d_model": 32, "n_heads": 2, "n_layers": 2, "ff": 64, "dropout": 0.0}
+
+
+@dataclass
+class TrainConfig:
+    """Training settings; saved in the checkpoint."""
+
+    stage: str = "base"             # "base" (text denoiser) | "control" (ControlNet + adapter)
+    out: str = ""                   # checkpoint path (atomic, rank 0); "" = runs/<stage>.pt
+                                    # (runs/smoke_<stage>.pt with --smoke)
+    base_ckpt: str = ""             # control stage: the trained base checkpoint
+    resume: bool = True             # continue from `out` if it exists
+    seed: int = 0                   # seeds data order, noise, dropout (rank r uses seed + r)
+    steps: int = 6000               # optimiser steps in total (resume continues up to it)
+    batch_size: int = 64            # windows per step and rank
+    lr: float = 2e-4                # peak AdamW learning rate (paper: 1e-5 over 12 GPU hours)
+    min_lr: float = 2e-5            # cosine decay floor
+    warmup: int = 200               # linear warm-up steps
+    weight_decay: float = 0.01      # AdamW weight decay
+    grad_clip: float = 1.0          # max global gradient norm (0 = off)
+    lambda_tr: float = 1.0          # λ_tr of Eq. (9) (paper: all weights 1)
+    lambda_key: float = 1.0         # λ_key of Eq. (9)
+    cond_drop_prob: float = -1.0    # p(text dropped) for CFG; < 0: the model config's value
+    min_t_r: int = 5                # shortest trajectory (frames) of a random condition
+    single_controlnet: bool = False  # Table 2 ablation: one ControlNet for both conditions
+    scheduler: str = "mld"          # noise schedule, a key of SCHEDULERS
+    checkpoint_every: int = 500     # steps between checkpoints (and at the end)
+    num_threads: int = 0            # torch threads per process; 0 = cores / processes
+    data_root: str = ""             # Bandai-Namco folder; "" = <external data>/mocap/bandai_namco
+    max_clips: int = 0              # use only the first k training clips (0 = all)
+    window_stride: int = 10         # frames between window starts (40-frame windows)
+    text_encoder: str = "minilm"    # "minilm" (text.ActionEncoder) | "hash" (tests: fake)
+    text_cache: str = ""            # optional EmbeddingCache .npz to read / fill
+    smoke: bool = False             # tiny model, few steps, few clips: seconds
+    progress: bool = True           # tqdm bar on rank 0
+
+    def __post_init__(self):
+        if self.stage not in ("base", "control"):
+            raise ValueError(f"stage must be 'base' or 'control', got {self.stage!r}")
+        if self.scheduler not in SCHEDULERS:
+            raise ValueError(f"scheduler must be one of {sorted(SCHEDULERS)}, got "
+                             f"{self.scheduler!r}")
+        if self.text_encoder not in ("minilm", "hash"):
+            raise ValueError(f"text_encoder must be 'minilm' or 'hash', got "
+                             f"{self.text_encoder!r}")
+        for name in ("steps", "batch_size", "checkpoint_every", "min_t_r", "window_stride"):
+            if getattr(self, name) < 1:
+                raise ValueError(f"{name} must be >= 1, got {getattr(self, name)}")
+        if not self.lr > 0:
+            raise ValueError(f"lr must be > 0, got {self.lr}")
+        if self.stage == "control" and not self.base_ckpt:
+            raise ValueError("stage 'control' needs --base-ckpt <checkpoint of stage 'base'>")
+
+
+# ----------------------------------------------------------------------------- data
+
+
+def hash_encoder(texts, dim=384):
+    """A deterministic stand-in text encoder for tests: each text -> a unit vector drawn
+    from a generator seeded by its sha256. Carries no meaning; (N, dim) float32."""
+    rows = []
+    for t in texts:
+        seed = int.from_bytes(hashlib.sha256(t.encode()).digest()[:8], "little")
+        v = np.random.default_rng(seed).standard_normal(dim)
+        rows.append(v / np.linalg.norm(v))
+    return np.asarray(rows, dtype=np.float32)
+
+
+hash_encoder.name = "hash-test-encoder"
+
+
+def _text_cache(texts, cfg: TrainConfig):
+    from .text import ActionEncoder, EmbeddingCache
+
+    encoder = hash_encoder if cfg.text_encoder == "hash" else None
+    if cfg.text_cache and Path(cfg.text_cache).is_file():
+        cache = EmbeddingCache.load(cfg.text_cache)
+    else:
+        cache = EmbeddingCache()
+    if any(t not in cache for t in texts):
+        if encoder is None:
+            encoder = ActionEncoder(num_threads=cfg.num_threads or None)
+        cache.get(sorted(set(texts)), encoder=encoder)
+        if cfg.text_cache:
+            cache.save(cfg.text_cache)
+    return cache
+
+
+def prepare_data(cfg: TrainConfig, stats: FeatureStats | None = None, cache=None):
+    """Training windows as tensors.
+
+    Loads the training clips (:func:`split_by_take`, take 001), cuts 40-frame windows
+    (stride ``cfg.window_stride``), computes their features and normalises them.
+
+    Returns
+    -------
+    dict with ``x0`` (N, 39, 137) float32 normalised features, ``joints`` (N, 40, 22, 3)
+    float64 canonical windows, ``text_index`` (N,) int64 into ``text_emb`` (V, 384) float32,
+    ``texts`` (list of V str), ``stats`` (:class:`FeatureStats`, computed here unless given),
+    ``cache`` (:class:`~physlab.motion.text.EmbeddingCache`).
+    """
+    root = cfg.data_root or None
+    ids = None
+    if cfg.max_clips:
+        rows = [r for r in read_labels(root) if r["take"] != "002"]
+        ids = [Path(r["file"]).stem for r in rows[:cfg.max_clips]]
+    clips = load_clips(root, clip_ids=ids)
+    train_clips, _ = split_by_take(clips) if ids is None else (clips, None)
+    win = make_windows(train_clips, length=40, stride=cfg.window_stride)
+    feats = np.stack([joints_to_features(w, fps=win.fps) for w in win.joints])  # (N, 39, 137)
+    if stats is None:
+        stats = FeatureStats.from_features(feats)
+    texts = sorted(set(win.text))
+    if cache is None:
+        cache = _text_cache(texts, cfg)
+    E = cache.get(texts, encoder=hash_encoder if cfg.text_encoder == "hash" else None)
+    index = {t: i for i, t in enumerate(texts)}
+    return {"x0": torch.tensor(stats.normalize(feats), dtype=torch.float32),
+            "joints": win.joints,
+            "text_index": torch.tensor([index[t] for t in win.text], dtype=torch.int64),
+            "text_emb": torch.tensor(E, dtype=torch.float32), "texts": texts,
+            "stats": stats, "cache": cache}
+
+
+def condition_batch(windows, rng, min_t_r=5):
+    """Random Sketch2Anim training conditions (:func:`random_condition`) of a batch.
+
+    Parameters
+    ----------
+    windows : (B, 40, 22, 3) float array of canonical windows.
+    rng : numpy Generator.
+
+    Returns
+    -------
+    dict of tensors: ``trajectory`` (B, 40, 6, 3) float32, ``traj_mask`` (B, 40, 6) bool,
+    ``keypose`` (B, 22, 3) float32, ``key_frame`` (B,) int64.
+    """
+    w = np.asarray(windows, dtype=float)
+    if w.ndim != 4 or w.shape[2:] != (len(JOINT_NAMES), 3):
+        raise ValueError(f"windows must have shape (B, N, {len(JOINT_NAMES)}, 3), got {w.shape}")
+    if not np.all(np.isfinite(w)):
+        raise ValueError("windows contain NaN or inf")
+    cs = [random_condition(x, rng, min_t_r=min_t_r) for x in w]
+    return {"trajectory": torch.tensor(np.stack([c.trajectory for c in cs]), dtype=torch.float32),
+            "traj_mask": torch.tensor(np.stack([c.mask for c in cs])),
+            "keypose": torch.tensor(np.stack([c.keypose for c in cs]), dtype=torch.float32),
+            "key_frame": torch.tensor([c.key_frame for c in cs], dtype=torch.int64)}
+
+
+def control_losses(x0_hat, joints, cond, mean, std):
+    """``L_tr`` (Eq. (6)) and ``L_key`` (Eq. (8)) of predicted clean features.
+
+    Parameters
+    ----------
+    x0_hat : (B, T, D) normalised x̂₀ (Eq. (7)); joints : (B, T+1, 22, 3) ground truth (m);
+    cond : condition dict (:func:`condition_batch`); mean, std : (D,) tensors.
+
+    Returns
+    -------
+    (L_tr, L_key) scalars in m²: L_tr is the masked mean over (frame, trajectory joint) of
+    squared distances, L_key the squared distance of the root-relative pose at the key
+    frame, summed over the 22 joints (the norm of Eq. (8) is over the whole frame).
+    """
+    pred = features_to_joints_torch(x0_hat * std + mean)                    # (B, N, J, 3) R(x̂₀)
+    tj = list(TRAJECTORY_JOINTS)
+    m = cond["traj_mask"].to(pred.dtype)                                     # (B, N, 6)
+    d2 = ((pred[:, :, tj] - joints[:, :, tj]) ** 2).sum(-1)                  # (B, N, 6)
+    l_tr = ((m * d2).sum((1, 2)) / m.sum((1, 2)).clamp(min=1)).mean()       # Eq. (6)
+    b = torch.arange(pred.shape[0])
+    kf = cond["key_frame"]
+    rel_p = pred[b, kf] - pred[b, kf, :1]                                    # (B, J, 3) R'(x̂₀)
+    rel_g = joints[b, kf] - joints[b, kf, :1]
+    l_key = ((rel_p - rel_g) ** 2).sum((1, 2)).mean()                        # Eq. (8), m'_i one-hot
+    return l_tr, l_key
+
+
+# ----------------------------------------------------------------------------- checkpoints
+
+
+def save_checkpoint(path, state):
+    """``torch.save(state)`` to ``path`` atomically; returns the Path."""
+    return atomic_write(path, lambda tmp: torch.save(state, tmp), suffix=".pt")
+
+
+def load_checkpoint(path):
+    """Read a checkpoint written by :func:`train` / :func:`export_weights`.
+
+    FileNotFoundError if missing, ValueError if unreadable (truncated / corrupt) or not a
+    physlab motion checkpoint."""
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"no checkpoint at {path}; train one with `python -m "
+                                f"physlab.motion.train --stage base --out {path}`")
+    try:
+        ckpt = torch.load(path, map_location="cpu", weights_only=False)
+    except Exception as e:  # noqa: BLE001 - torch raises many kinds for a corrupt file
+        raise ValueError(f"{path} is not a readable checkpoint ({type(e).__name__}: {e}); "
+                         f"it may be truncated or corrupt: delete it and retrain, or use an "
+                         f"older copy") from None
+    if not isinstance(ckpt, dict) or ckpt.get("kind") != CHECKPOINT_KIND:
+        raise ValueError(f"{path} is not a physlab.motion.train checkpoint (no kind "
+                         f"{CHECKPOINT_KIND!r})")
+    if ckpt.get("version") != CHECKPOINT_VERSION:
+        raise ValueError(f"{path} has checkpoint version {ckpt.get('version')}, this code "
+                         f"reads version {CHECKPOINT_VERSION}")
+    return ckpt
+
+
+def _build(ckpt):
+    cfg = DenoiserConfig.from_dict(ckpt["model_config"])
+    base = MotionDenoiser(cfg)
+    if ckpt["stage"] == "base":
+        return base
+    return ControlledDenoiser(base, single_controlnet=ckpt["single_controlnet"])
+
+
+def load_model(path_or_ckpt):
+    """Rebuild the trained network and everything needed to sample with it.
+
+    Returns
+    -------
+    dict: ``model`` (:class:`MotionDenoiser` or :class:`ControlledDenoiser`, eval mode,
+    float32), ``scheduler`` (:class:`NoiseScheduler`), ``stats`` (:class:`FeatureStats`),
+    ``text_cache`` (:class:`EmbeddingCache`), ``config`` (:class:`DenoiserConfig`),
+    ``stage``, ``step``.
+    """
+    from .text import EmbeddingCache
+
+    ckpt = path_or_ckpt if isinstance(path_or_ckpt, dict) else load_checkpoint(path_or_ckpt)
+    model = _build(ckpt)
+    model.load_state_dict({k: v.float() for k, v in ckpt["model"].items()})
+    model.eval()
+    return {"model": model, "scheduler": NoiseScheduler.from_dict(ckpt["scheduler"]),
+            "stats": FeatureStats(**ckpt["feature_stats"]),
+            "text_cache": EmbeddingCache.from_state_dict(ckpt["text_cache"]),
+            "config": model.config, "stage": ckpt["stage"], "step": ckpt["step"]}
+
+
+def export_weights(src, dst, dtype=torch.float16):
+    """Write an inference-only copy of a checkpoint (no optimizer / RNG states; weights cast
+    to ``dtype``); :func:`load_model` reads it. Returns the Path."""
+    ckpt = load_checkpoint(src)
+    small = {k: v for k, v in ckpt.items() if k not in ("optimizer", "rng")}
+    small["model"] = {k: v.to(dtype) if v.is_floating_point() else v
+                      for k, v in ckpt["model"].items()}
+    return save_checkpoint(dst, small)
+
+
+def _param_digest(model):
+    h = hashlib.sha256()
+    for p in model.parameters():
+        h.update(p.detach().cpu().contiguous().numpy().tobytes())
+    return h.hexdigest()
+
+
+def _rng_state(g, rng):
+    return {"torch": torch.get_rng_state(), "gen": g.get_state(),
+            "numpy": rng.bit_generator.state}
+
+
+def _set_rng_state(state, g, rng):
+    torch.set_rng_state(state["torch"])
+    g.set_state(state["gen"])
+    rng.bit_generator.state = state["numpy"]
+
+
+# ----------------------------------------------------------------------------- training
+
+
+def _split_kwargs(kwargs):
+    t_fields = {f.name for f in dataclasses.fields(TrainConfig)}
+    m_fields = {f.name for f in dataclasses.fields(DenoiserConfig)}
+    unknown = sorted(set(kwargs) - t_fields - m_fields)
+    if unknown:
+        raise ValueError(f"unknown options {unknown}; see `python -m physlab.motion.train -h`")
+    tk = {k: v for k, v in kwargs.items() if k in t_fields}
+    mk = {k: v for k, v in kwargs.items() if k in m_fields and k not in t_fields}
+    return tk, mk
+
+
+def _lr(cfg, step):
+    if step < cfg.warmup:
+        return cfg.lr * (step + 1) / cfg.warmup
+    frac = (step - cfg.warmup) / max(1, cfg.steps - cfg.warmup)
+    return cfg.min_lr + 0.5 * (cfg.lr - cfg.min_lr) * (1 + math.cos(math.pi * min(1.0, frac)))
+
+
+def train(**kwargs):
+    """Train (or resume) one stage; keyword names = the CLI flags (``--batch-size`` ->
+    ``batch_size``), fields of :class:`TrainConfig` and :class:`DenoiserConfig`.
+
+    Under ``torchrun`` (``WORLD_SIZE > 1``) it joins a gloo process group and wraps the
+    network in DistributedDataParallel; each rank draws its own batches (seed + rank) and
+    only rank 0 prints and writes checkpoints.
+
+    Returns
+    -------
+    dict: ``path`` of the checkpoint, ``step``, ``loss`` (last step's total loss),
+    ``windows_per_s`` (training throughput over all ranks, excluding the first step),
+    ``n_params`` / ``n_trainable``, ``param_digests`` (per rank).
+    """
+    import torch.distributed as dist
+    from tqdm.auto import tqdm
+
+    tk, mk = _split_kwargs(kwargs)
+    user_mk = dict(mk)
+    if tk.get("smoke"):
+        tk = {"steps": 3, "batch_size": 8, "max_clips": 3, "text_encoder": "hash",
+              "checkpoint_every": 2, "warmup": 1, **tk}
+        mk = {**SMOKE_MODEL, **mk}
+    if not tk.get("out"):
+        stage = tk.get("stage", "base")
+        tk["out"] = f"runs/smoke_{stage}.pt" if tk.get("smoke") else f"runs/{stage}.pt"
+    cfg = TrainConfig(**tk)
+
+    world = int(os.environ.get("WORLD_SIZE", "1"))
+    rank = int(os.environ.get("RANK", "0"))
+    ddp = world > 1
+    if ddp and not dist.is_initialized():
+        dist.init_process_group("gloo")
+    threads = cfg.num_threads or max(1, (os.cpu_count() or 1) // world)
+    torch.set_num_threads(threads)
+    torch.manual_seed(cfg.seed + rank)
+    g = torch.Generator().manual_seed(cfg.seed + 1000 * (rank + 1))
+    rng = np.random.default_rng(cfg.seed + 7919 * (rank + 1))
+    out = Path(cfg.out)
+
+    resume = load_checkpoint(out) if cfg.resume and out.is_file() else None
+    if resume is not None and resume["stage"] != cfg.stage:
+        raise ValueError(f"{out} holds a '{resume['stage']}' checkpoint but --stage is "
+                         f"'{cfg.stage}'; use another --out")
+    base_ckpt = None
+    if cfg.stage == "control":
+        base_ckpt = load_checkpoint(cfg.base_ckpt)
+        if base_ckpt["stage"] != "base":
+            raise ValueError(f"--base-ckpt {cfg.base_ckpt} is a '{base_ckpt['stage']}' "
+                             f"checkpoint; give the output of --stage base")
+    src = resume or base_ckpt
+    if src is not None:        # model config, stats, schedule and texts of the earlier run
+        model_cfg = DenoiserConfig.from_dict(src["model_config"])
+        stats = FeatureStats(**src["feature_stats"])
+        from .text import EmbeddingCache
+        cache = EmbeddingCache.from_state_dict(src["text_cache"])
+        sched = NoiseScheduler.from_dict(src["scheduler"])
+        if user_mk and rank == 0:
+            print(f"note: model options {sorted(user_mk)} ignored; the model config comes from "
+                  f"{out if resume else cfg.base_ckpt}", file=sys.stderr)
+    else:
+        model_cfg = DenoiserConfig(**mk)
+        stats, cache = None, None
+        sched = NoiseScheduler(SchedulerConfig(**SCHEDULERS[cfg.scheduler]))
+    if cfg.text_encoder == "hash" and cache is not None:
+        cache.encoder = hash_encoder
+    data = prepare_data(cfg, stats=stats, cache=cache)
+    stats, cache = data["stats"], data["cache"]
+    if model_cfg.n_frames != data["x0"].shape[1]:
+        raise ValueError(f"model n_frames={model_cfg.n_frames} but windows have "
+                         f"{data['x0'].shape[1]} feature rows")
+    p_drop = model_cfg.cond_drop_prob if cfg.cond_drop_prob < 0 else cfg.cond_drop_prob
+
+    base = MotionDenoiser(model_cfg)
+    if cfg.stage == "base":
+        model = base
+    else:
+        base.load_state_dict(base_ckpt["model"])
+        model = ControlledDenoiser(base, single_controlnet=cfg.single_controlnet)
+    params = [p for p in model.parameters() if p.requires_grad]
+    opt = torch.optim.AdamW(params, lr=cfg.lr, weight_decay=cfg.weight_decay)
+    step = 0
+    if resume is not None:
+        if cfg.stage == "control" and resume["single_controlnet"] != cfg.single_controlnet:
+            raise ValueError(f"{out} was trained with single_controlnet="
+                             f"{resume['single_controlnet']}; use another --out")
+        model.load_state_dict(resume["model"])
+        opt.load_state_dict(resume["optimizer"])
+        step = int(resume["step"])
+        states = resume.get("rng") or []
+        if len(states) == world:
+            _set_rng_state(states[rank], g, rng)
+        elif rank == 0:
+            print(f"note: resuming with {world} processes from a run with {len(states)}; "
+                  f"random streams restart", file=sys.stderr)
+    net = torch.nn.parallel.DistributedDataParallel(model) if ddp else model
+    model.train()
+
+    mean = torch.tensor(stats.mean, dtype=torch.float32)
+    std = torch.tensor(stats.std, dtype=torch.float32)
+    x0_all, text_idx, text_emb = data["x0"], data["text_index"], data["text_emb"]
+    joints_np = data["joints"]
+    joints_all = torch.tensor(joints_np, dtype=torch.float32)
+    N, B = len(x0_all), cfg.batch_size
+
+    def checkpoint(loss):
+        digests = [_param_digest(model)]
+        rngs = [_rng_state(g, rng)]
+        if ddp:
+            digests, rngs = [None] * world, [None] * world
+            dist.all_gather_object(digests, _param_digest(model))
+            dist.all_gather_object(rngs, _rng_state(g, rng))
+        if rank == 0:
+            save_checkpoint(out, {
+                "kind": CHECKPOINT_KIND, "version": CHECKPOINT_VERSION, "stage": cfg.stage,
+                "single_controlnet": cfg.single_controlnet,
+                "model_config": model_cfg.to_dict(), "train_config": dataclasses.asdict(cfg),
+                "model": model.state_dict(), "optimizer": opt.state_dict(), "step": step,
+                "rng": rngs, "feature_stats": {"mean": stats.mean, "std": stats.std},
+                "scheduler": sched.to_dict(), "text_cache": cache.state_dict(),
+                "param_digests": digests, "loss": loss, "world_size": world})
+        return digests
+
+    bar = tqdm(total=cfg.steps, initial=step, disable=not (cfg.progress and rank == 0),
+               desc=f"train {cfg.stage}")
+    loss_v, digests, t_start, n_timed = float("nan"), None, None, 0
+    try:
+        while step < cfg.steps:
+            for group in opt.param_groups:
+                group["lr"] = _lr(cfg, step)
+            idx = torch.randint(N, (B,), generator=g)                            # (B,)
+            x0 = x0_all[idx]                                                     # (B, T, D)
+            a = text_emb[text_idx[idx]]                                          # (B, 384)
+            t = sched.sample_timesteps(B, generator=g)                           # (B,)
+            noise = torch.randn(x0.shape, generator=g)                           # (B, T, D)
+            x_t = sched.add_noise(x0, noise, t)
+            drop = torch.rand(B, generator=g) < p_drop                           # (B,) CFG
+            if cfg.stage == "base":
+                eps = net(x_t, t, a, drop)
+                loss = F.mse_loss(eps, noise)
+                parts = {}
+            else:
+                cond = condition_batch(joints_np[idx.numpy()], rng, cfg.min_t_r)
+                eps = net(x_t, t, a, cond, drop)
+                l_rec = F.mse_loss(eps, noise)                                   # Eq. (5)
+                x0_hat = sched.predict_x0(x_t, eps, t)                           # Eq. (7)
+                l_tr, l_key = control_losses(x0_hat, joints_all[idx], cond, mean, std)
+                loss = l_rec + cfg.lambda_tr * l_tr + cfg.lambda_key * l_key     # Eq. (9)
+                parts = {"rec": l_rec.item(), "tr": l_tr.item(), "key": l_key.item()}
+            if not torch.isfinite(loss):
+                raise FloatingPointError(f"loss became {loss.item()} at step {step}; lower --lr "
+                                         f"or --lambda-tr / --lambda-key")
+            opt.zero_grad(set_to_none=True)
+            loss.backward()
+            if cfg.grad_clip > 0:
+                torch.nn.utils.clip_grad_norm_(params, cfg.grad_clip)
+            opt.step()
+            step += 1
+            loss_v = loss.item()
+            if t_start is None:
+                t_start = time.perf_counter()       # time from the end of the first step
+            else:
+                n_timed += 1
+            bar.update(1)
+            bar.set_postfix(loss=f"{loss_v:.4f}", **{k: f"{v:.4f}" for k, v in parts.items()})
+            if step % cfg.checkpoint_every == 0 or step == cfg.steps:
+                digests = checkpoint(loss_v)
+    except KeyboardInterrupt:
+        bar.close()
+        if not ddp and step > 0:          # keep the work done; rerun the command to resume
+            checkpoint(loss_v)
+            print(f"interrupted: checkpoint of step {step} written to {out}", file=sys.stderr)
+        raise
+    bar.close()
+    if digests is None:                # nothing left to train: report the loaded state
+        digests = [resume.get("param_digests", [None])[0]] if resume else None
+    elapsed = time.perf_counter() - t_start if t_start is not None else 0.0
+    wps = n_timed * B * world / elapsed if n_timed and elapsed > 0 else float("nan")
+    if ddp:
+        dist.barrier()
+    return {"path": out, "step": step, "loss": loss_v, "windows_per_s": wps,
+            "n_params": count_parameters(model),
+            "n_trainable": count_parameters(model, trainable_only=True),
+            "param_digests": digests, "rank": rank, "world_size": world}
+
+
+# ----------------------------------------------------------------------------- CLI
+
+
+def _parser():
+    p = argparse.ArgumentParser(prog="python -m physlab.motion.train",
+                                description=__doc__.split("\n\n")[0])
+    for cls in (TrainConfig, DenoiserConfig):
+        group = p.add_argument_group(cls.__name__)
+        for f in dataclasses.fields(cls):
+            if cls is DenoiserConfig and f.name in {x.name for x in dataclasses.fields(TrainConfig)}:
+                continue
+            flag = "--" + f.name.replace("_", "-")
+            if f.type in ("bool", bool):
+                group.add_argument(flag, action=argparse.BooleanOptionalAction, default=None)
+            else:
+                typ = {"int": int, "float": float, "str": str}.get(f.type, f.type)
+                group.add_argument(flag, type=typ, default=None,
+                                   help=f"default {f.default!r}")
+    p.add_argument("--export", default="", help="after training, write an fp16 inference "
+                                                "copy of the checkpoint to this path")
+    return p
+
+
+def main(argv=None):
+    args = vars(_parser().parse_args(argv))
+    export = args.pop("export")
+    kwargs = {k: v for k, v in args.items() if v is not None}
+    res = train(**kwargs)
+    if res["rank"] == 0:
+        print(f"stage {kwargs.get('stage', 'base')}: step {res['step']}, loss "
+              f"{res['loss']:.4f}, {res['windows_per_s']:.1f} windows/s, "
+              f"{res['n_trainable']:,} trainable of {res['n_params']:,} parameters -> "
+              f"{res['path']}")
+        if export:
+            export_weights(res["path"], export)
+            print(f"inference weights (fp16) -> {export}")
+    if int(os.environ.get("WORLD_SIZE", "1")) > 1:
+        import torch.distributed as dist
+        dist.destroy_process_group()
+    return res
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,196 @@
+"""Tests of physlab.motion.model: shapes, the zero-init property of ControlNet / adapter
+(Sketch2Anim Eqs. (1)–(4)), an overfit sanity check, and the torch features -> joints decoder
+against the numpy inverse."""
+import numpy as np
+import pytest
+import torch
+
+from physlab.motion.features import canonicalize, features_to_joints, joints_to_features
+from physlab.motion.model import (
+    ControlledDenoiser,
+    DenoiserConfig,
+    MotionDenoiser,
+    count_parameters,
+    features_to_joints_torch,
+    timestep_embedding,
+)
+
+TINY = {"d_model": 32, "n_heads": 2, "n_layers": 2, "ff": 64, "dropout": 0.0}
+
+
+def _inputs(B=3, seed=0, cfg=None):
+    cfg = cfg or DenoiserConfig(**TINY)
+    g = torch.Generator().manual_seed(seed)
+    N = cfg.n_frames + 1
+    x = torch.randn(B, cfg.n_frames, cfg.feature_dim, generator=g)          # (B, T, D)
+    t = torch.randint(0, cfg.max_timesteps, (B,), generator=g)
+    a = torch.randn(B, cfg.text_dim, generator=g)
+    cond = {"trajectory": torch.randn(B, N, 6, 3, generator=g),
+            "traj_mask": torch.rand(B, N, 6, generator=g) > 0.5,
+            "keypose": torch.randn(B, 22, 3, generator=g),
+            "key_frame": torch.tensor([0, N - 1, 0][:B] + [0] * max(0, B - 3))}
+    return x, t, a, cond
+
+
+def _walk(T=40, seed=0):
+    """A smooth synthetic 22-joint motion (T, 22, 3), canonicalised (not a real body, but
+    hips and shoulders define a heading in every frame)."""
+    rng = np.random.default_rng(seed)
+    rest = rng.normal(scale=0.3, size=(22, 3))
+    rest[[1, 2, 16, 17]] = [[0.1, 0, 0], [-0.1, 0, 0], [0.2, 0.5, 0], [-0.2, 0.5, 0]]
+    time = np.arange(T)[:, None, None] / 20.0
+    wobble = 0.05 * np.sin(2 * np.pi * (0.7 * time + rng.random((1, 22, 3))))
+    x = rest[None] + wobble + np.array([0.3, 1.0, 1.2]) * time * np.array([1, 0, 1])
+    yaw = 0.4 * np.sin(time[:, 0, 0])
+    c, s = np.cos(yaw)[:, None], np.sin(yaw)[:, None]
+    x = np.stack([c * x[..., 0] + s * x[..., 2], x[..., 1] + 0.9, -s * x[..., 0] + c * x[..., 2]],
+                 axis=-1)
+    return canonicalize(x, ground=False)
+
+
+# ----------------------------------------------------------------------------- config
+
+
+def test_default_config_and_parameter_counts():
+    cfg = DenoiserConfig()
+    assert (cfg.feature_dim, cfg.n_frames, cfg.n_joint_frames) == (137, 39, 40)
+    base = MotionDenoiser(cfg)
+    ctrl = ControlledDenoiser(base)
+    # reference numbers of the default size (README of the training run)
+    assert count_parameters(base) == 916_489
+    assert count_parameters(ctrl, trainable_only=True) == count_parameters(ctrl) - 916_489
+    assert count_parameters(ctrl) * 2 < 25e6          # fp16 inference checkpoint < 25 MB
+    assert DenoiserConfig.from_dict(cfg.to_dict()) == cfg
+
+
+@pytest.mark.parametrize("bad, match", [
+    ({"d_model": 30, "n_heads": 4}, "divisible"),
+    ({"n_layers": 0}, "n_layers"),
+    ({"dropout": 1.5}, "dropout"),
+    ({"cond_drop_prob": -0.1}, "cond_drop_prob"),
+])
+def test_config_rejects_bad_values(bad, match):
+    with pytest.raises(ValueError, match=match):
+        DenoiserConfig(**bad)
+    with pytest.raises(ValueError, match="unknown"):
+        DenoiserConfig.from_dict({"d_modle": 3})
+
+
+def test_timestep_embedding_analytic():
+    e = timestep_embedding(torch.tensor([0, 5]), 8)
+    assert e.shape == (2, 8)
+    assert torch.equal(e[0], torch.tensor([1.0] * 4 + [0.0] * 4))       # cos 0, sin 0
+    assert torch.allclose(e[1, 0], torch.cos(torch.tensor(5.0)))
+
+
+# ----------------------------------------------------------------------------- networks
+
+
+def test_shapes_base_controlled_single():
+    cfg = DenoiserConfig(**TINY)
+    base = MotionDenoiser(cfg).eval()
+    x, t, a, cond = _inputs(cfg=cfg)
+    assert base(x, t, a).shape == x.shape
+    assert base(x, t, a, drop_text=torch.tensor([True, False, True])).shape == x.shape
+    for single in (False, True):
+        ctrl = ControlledDenoiser(base, single_controlnet=single).eval()
+        assert ctrl(x, t, a, cond).shape == x.shape
+        assert (ctrl.adapter is None) == single
+
+
+def test_zero_init_controlled_equals_base_exactly():
+    cfg = DenoiserConfig(**TINY)
+    base = MotionDenoiser(cfg).eval()
+    x, t, a, cond = _inputs(cfg=cfg)
+    drop = torch.tensor([False, True, False])
+    ref = base(x, t, a, drop)
+    for single in (False, True):
+        ctrl = ControlledDenoiser(base, single_controlnet=single).eval()
+        assert torch.equal(ctrl(x, t, a, cond, drop), ref)
+        with torch.no_grad():
+            assert torch.equal(ctrl(x, t, a, cond, drop), ref)
+        # the copies start from the base weights, the base is frozen
+        sd_b, sd_c = base.encoder.state_dict(), ctrl.controlnet.encoder.state_dict()
+        assert all(torch.equal(sd_b[k], sd_c[k]) for k in sd_b)
+        assert not any(p.requires_grad for p in ctrl.base.parameters())
+
+
+def test_controls_change_output_after_one_step_and_base_stays_frozen():
+    cfg = DenoiserConfig(**TINY)
+    base = MotionDenoiser(cfg).eval()
+    before = {k: v.clone() for k, v in base.state_dict().items()}
+    ctrl = ControlledDenoiser(base).train()
+    x, t, a, cond = _inputs(cfg=cfg)
+    opt = torch.optim.Adam([p for p in ctrl.parameters() if p.requires_grad], lr=1e-3)
+    for _ in range(2):
+        opt.zero_grad()
+        ctrl(x, t, a, cond).square().mean().backward()
+        opt.step()
+    ctrl.eval()
+    assert not torch.equal(ctrl(x, t, a, cond), base(x, t, a))
+    assert all(torch.equal(before[k], v) for k, v in base.state_dict().items())
+    assert not base.training                        # frozen base stays in eval mode
+
+
+def test_overfit_tiny_batch():
+    torch.manual_seed(0)
+    cfg = DenoiserConfig(**TINY)
+    model = MotionDenoiser(cfg)
+    x, t, a, _ = _inputs(B=4, cfg=cfg)
+    target = torch.randn(x.shape, generator=torch.Generator().manual_seed(1))
+    opt = torch.optim.Adam(model.parameters(), lr=3e-3)
+    losses = []
+    for _ in range(60):
+        opt.zero_grad()
+        loss = (model(x, t, a) - target).square().mean()
+        loss.backward()
+        opt.step()
+        losses.append(loss.item())
+    assert losses[-1] < 0.5 * losses[0]
+
+
+@pytest.mark.parametrize("change, match", [
+    (lambda x, t, a, c: (x[:, :-1], t, a, c), "x_t must have shape"),
+    (lambda x, t, a, c: (x.index_fill(1, torch.tensor([3]), float("nan")), t, a, c), "NaN"),
+    (lambda x, t, a, c: (x, t.float(), a, c), "integer"),
+    (lambda x, t, a, c: (x, t + 1000, a, c), "max_timesteps"),
+    (lambda x, t, a, c: (x, t, a[:, :100], c), "text_emb"),
+    (lambda x, t, a, c: (x, t, a, {**c, "keypose": c["keypose"][:, :21]}), "22 joints"),
+    (lambda x, t, a, c: (x, t, a, {**c, "trajectory": torch.zeros(3, 40, 7, 3)}),
+     "6 trajectory joints"),
+    (lambda x, t, a, c: (x, t, a, {**c, "key_frame": torch.tensor([0, 40, 1])}), "0..39"),
+    (lambda x, t, a, c: (x, t, a, {**c, "trajectory": c["trajectory"] * float("nan")}), "NaN"),
+    (lambda x, t, a, c: (x, t, a, {"keypose": c["keypose"]}), "missing"),
+])
+def test_bad_inputs_raise_clear_errors(change, match):
+    cfg = DenoiserConfig(**TINY)
+    ctrl = ControlledDenoiser(MotionDenoiser(cfg)).eval()
+    with pytest.raises(ValueError, match=match):
+        ctrl(*change(*_inputs(cfg=cfg)))
+
+
+# ----------------------------------------------------------------------------- decoding
+
+
+def test_torch_decoding_matches_numpy_inverse():
+    rng = np.random.default_rng(0)
+    f = rng.normal(scale=0.1, size=(3, 39, 137))                            # any rows decode
+    ref = np.stack([features_to_joints(fi) for fi in f])                    # (3, 40, 22, 3)
+    out = features_to_joints_torch(torch.tensor(f)).numpy()
+    assert out.shape == (3, 40, 22, 3)
+    assert np.abs(out - ref).max() < 1e-12                                  # float64
+    out32 = features_to_joints_torch(torch.tensor(f, dtype=torch.float32)).numpy()
+    assert np.abs(out32 - ref).max() < 1e-5                                 # float32, metres
+    no_last = features_to_joints_torch(torch.tensor(f), include_last=False).numpy()
+    assert np.array_equal(no_last, out[:, :-1])
+
+
+def test_torch_decoding_inverts_features_of_a_motion_and_has_gradients():
+    x = _walk()
+    f = torch.tensor(joints_to_features(x)[None], requires_grad=True)       # (1, 39, 137)
+    j = features_to_joints_torch(f)
+    assert np.abs(j[0].detach().numpy() - x).max() < 1e-10                  # exact inverse
+    j[0, -1, 15].sum().backward()                                           # head, last frame
+    assert f.grad.abs().sum() > 0 and torch.isfinite(f.grad).all()
+    with pytest.raises(ValueError, match="137"):
+        features_to_joints_torch(torch.zeros(1, 39, 136))
