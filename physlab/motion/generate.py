@@ -1,0 +1,338 @@
+"""Sampling from a trained motion generator (nanoGPT's ``sample.py``): action text + optional
+keypose + optional joint trajectories -> a 40-frame motion ``(40, 22, 3)`` in metres.
+
+Usage::
+
+    from physlab.motion.generate import Generator, generate
+    gen = Generator.from_checkpoint("runs/control.pt")
+    joints = gen("a person walks", keypose_3d=K, keypose_at="first",
+                 trajectories_3d={"pelvis": P}, seed=0)                 # (40, 22, 3)
+    joints = generate("a person walks")          # DEFAULT_CHECKPOINT, loaded once and cached
+
+Any subset of conditions may be given (Sketch2Anim Fig. 13): text only, text + keypose,
+text + trajectories, or all three.
+
+* **Text only** runs the text denoiser ``eps_theta(x_t, t, a)`` alone (the frozen base of a
+  control checkpoint, or a base checkpoint) — the pre-trained text-to-motion model.
+* **Keypose / trajectories** need a control checkpoint (:class:`ControlledDenoiser`). The
+  dense condition is laid out exactly as :func:`~physlab.motion.dataset.condition_from_window`
+  does (Sketch2Anim Sec. 3): ``keypose_at="first"`` puts the keypose at frame 0 and each
+  trajectory of ``t_r`` frames into frames ``0 .. t_r-1``; ``"last"`` puts the keypose at
+  frame 39 and the trajectories into the last ``t_r`` frames. Joints without a trajectory
+  are masked out. Training always pairs a keypose with >= 1 trajectory; a missing keypose is
+  encoded as "no keypose": the adapter's grounded embedding is ``a' = a`` (``E_k(K) = 0``,
+  the value of the zero-initialised encoder; for the single-ControlNet ablation a zero pose),
+  a missing trajectory as an all-False mask. Both are outside the training distribution,
+  so expect weaker control there than for keypose + trajectories.
+* **Classifier-free guidance** (Sketch2Anim Eq. (14)), ``eps = eps_u + w (eps_c - eps_u)``,
+  is applied to the *text*: ``eps_u`` replaces the action embedding by the learned null
+  embedding (``drop_text``), ``eps_c`` uses it; the keypose / trajectory branches are active
+  in *both* passes, so the control signal is not amplified by ``w`` (the two passes run as
+  one batch of 2). ``w = 0`` is the text-free model, ``w = 1`` the plain conditional one.
+
+Coordinates: the conditions live in the canonical window frame of training
+(:func:`~physlab.motion.dataset.make_windows`): metres, y up, pelvis of frame 0 at
+``x = z = 0`` facing ``+z``; the returned joints are in the same frame.
+
+A checkpoint is the output of ``python -m physlab.motion.train`` (or its ``--export`` fp16
+copy). Time per clip (1 CPU thread, 50 DDIM steps, CFG as one batch of 2): smoke model
+~0.04 s text only / ~0.12 s with keypose + trajectory; default-size model (d_model 128, 4
+layers) ~0.17 s text only / ~0.55 s controlled.
+"""
+from __future__ import annotations
+
+import functools
+import math
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from .dataset import TRAJECTORY_JOINT_NAMES, TRAJECTORY_JOINTS
+from .diffusion import classifier_free_guidance
+from .features import features_to_joints
+from .model import ControlledDenoiser, trajectory_frames
+from .skeleton import JOINT_NAMES
+
+__all__ = ["DEFAULT_CHECKPOINT", "N_FRAMES", "Generator", "build_condition", "generate",
+           "load_generator"]
+
+#: Default control checkpoint used by :func:`generate` (not shipped; train it, see below).
+DEFAULT_CHECKPOINT = Path(__file__).resolve().parents[2] / "data" / "motion" / \
+    "sketch2anim_control.pt"
+
+#: Joint frames of a generated clip (Sketch2Anim N = 40).
+N_FRAMES = 40
+
+KEYPOSE_AT = ("first", "last")
+METHODS = ("ddim", "ddpm")
+
+
+def _train_commands(path):
+    return (f"`python -m physlab.motion.train --stage base --out runs/base.pt` then "
+            f"`python -m physlab.motion.train --stage control --base-ckpt runs/base.pt "
+            f"--out {path}` (add --smoke for a seconds-long test model)")
+
+
+# ----------------------------------------------------------------------------- conditions
+
+
+def _finite_array(x, name, shape=None):
+    try:
+        a = np.asarray(x, dtype=float)
+    except (TypeError, ValueError) as e:
+        raise TypeError(f"{name} must be a numeric array, got {type(x).__name__} ({e})") from None
+    if shape is not None and a.shape != shape:
+        raise ValueError(f"{name} must have shape {shape}, got {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"{name} contains NaN or inf")
+    return a
+
+
+def build_condition(keypose_3d=None, keypose_at="first", trajectories_3d=None,
+                    n_frames=N_FRAMES):
+    """Dense keypose / trajectory condition of one clip, laid out like
+    :func:`~physlab.motion.dataset.condition_from_window` (Sketch2Anim Sec. 3).
+
+    Parameters
+    ----------
+    keypose_3d : None or (22, 3) float array, metres (canonical window frame).
+    keypose_at : ``"first"`` (keypose at frame 0, trajectories over the first ``t_r``
+        frames) or ``"last"`` (frame ``n_frames - 1``, the last ``t_r`` frames).
+    trajectories_3d : None or dict ``{joint_name: (t_r, 3) array}``, names from
+        :data:`~physlab.motion.dataset.TRAJECTORY_JOINT_NAMES`, ``1 <= t_r <= n_frames``
+        (each joint may have its own ``t_r``).
+
+    Returns
+    -------
+    dict: ``trajectory`` (N, 6, 3) float64 (zeros where masked), ``traj_mask`` (N, 6) bool,
+    ``keypose`` (22, 3) float64 (zeros when absent), ``key_frame`` int, ``has_keypose`` bool,
+    ``has_trajectory`` bool.
+    """
+    if keypose_at not in KEYPOSE_AT:
+        raise ValueError(f"keypose_at must be 'first' or 'last', got {keypose_at!r}")
+    N = int(n_frames)
+    key_frame = 0 if keypose_at == "first" else N - 1
+    keypose = np.zeros((len(JOINT_NAMES), 3))
+    if keypose_3d is not None:
+        keypose = _finite_array(keypose_3d, "keypose_3d", (len(JOINT_NAMES), 3))
+    trajectory = np.zeros((N, len(TRAJECTORY_JOINTS), 3))
+    mask = np.zeros((N, len(TRAJECTORY_JOINTS)), dtype=bool)
+    if trajectories_3d is not None:
+        if not isinstance(trajectories_3d, dict):
+            raise TypeError(f"trajectories_3d must be a dict {{joint_name: (t_r, 3) array}} "
+                            f"with names from {', '.join(TRAJECTORY_JOINT_NAMES)}; got "
+                            f"{type(trajectories_3d).__name__}")
+        unknown = [k for k in trajectories_3d if k not in TRAJECTORY_JOINT_NAMES]
+        if unknown:
+            raise ValueError(f"trajectories_3d has unknown joint names {unknown}; valid names "
+                             f"are {', '.join(TRAJECTORY_JOINT_NAMES)}")
+        for name, traj in trajectories_3d.items():
+            p = _finite_array(traj, f"trajectories_3d[{name!r}]")
+            if p.ndim != 2 or p.shape[1] != 3 or len(p) < 1:
+                raise ValueError(f"trajectories_3d[{name!r}] must have shape (t_r, 3) with "
+                                 f"t_r >= 1, got {p.shape}")
+            if len(p) > N:
+                raise ValueError(f"trajectories_3d[{name!r}] has {len(p)} frames, more than "
+                                 f"the {N} frames of a generated clip")
+            c = TRAJECTORY_JOINT_NAMES.index(name)
+            frames = np.arange(len(p)) if keypose_at == "first" else np.arange(N - len(p), N)
+            trajectory[frames, c] = p
+            mask[frames, c] = True
+    return {"trajectory": trajectory, "traj_mask": mask, "keypose": keypose,
+            "key_frame": key_frame, "has_keypose": keypose_3d is not None,
+            "has_trajectory": bool(mask.any())}
+
+
+# ----------------------------------------------------------------------------- generator
+
+
+class Generator:
+    """A loaded checkpoint, ready to sample.
+
+    Attributes
+    ----------
+    model : :class:`MotionDenoiser` (base checkpoint) or :class:`ControlledDenoiser`, eval.
+    scheduler : :class:`~physlab.motion.diffusion.NoiseScheduler`.
+    stats : :class:`~physlab.motion.features.FeatureStats` (de-normalisation).
+    text_cache : :class:`~physlab.motion.text.EmbeddingCache`; known action texts never load
+        the text encoder (``text_cache.n_encoded`` counts encoded texts).
+    stage : ``"base"`` | ``"control"``; path : Path of the checkpoint.
+    """
+
+    def __init__(self, model, scheduler, stats, text_cache, stage, path=None):
+        self.model, self.scheduler, self.stats = model, scheduler, stats
+        self.text_cache, self.stage, self.path = text_cache, stage, path
+        self.config = model.config
+
+    @classmethod
+    def from_checkpoint(cls, path):
+        """Load a checkpoint of :func:`physlab.motion.train.train` (or its fp16 export).
+
+        FileNotFoundError (with the training commands) if the file is missing, ValueError if
+        it is truncated / corrupt / not a physlab motion checkpoint / lacks sampling data."""
+        from .train import hash_encoder, load_checkpoint, load_model
+
+        path = Path(path)
+        if not path.is_file():
+            raise FileNotFoundError(f"no motion checkpoint at {path}; make one with "
+                                    f"{_train_commands(path)}")
+        ckpt = load_checkpoint(path)            # ValueError: corrupt / wrong kind / version
+        missing = sorted({"stage", "model_config", "model", "scheduler", "feature_stats",
+                          "text_cache"} - set(ckpt))
+        if missing:
+            raise ValueError(f"{path} lacks {missing}; it was not written by "
+                             f"physlab.motion.train: retrain with {_train_commands(path)}")
+        try:
+            loaded = load_model(ckpt)
+        except (RuntimeError, KeyError, TypeError) as e:
+            raise ValueError(f"{path}: the weights do not fit the saved model config "
+                             f"({type(e).__name__}: {e}); retrain with "
+                             f"{_train_commands(path)}") from None
+        cache = loaded["text_cache"]
+        if (ckpt.get("train_config") or {}).get("text_encoder") == "hash":
+            cache.encoder = hash_encoder        # smoke / test models: the fake encoder
+        return cls(loaded["model"], loaded["scheduler"], loaded["stats"], cache,
+                   loaded["stage"], path)
+
+    def __repr__(self):
+        return (f"Generator(stage={self.stage!r}, path={str(self.path)!r}, "
+                f"d_model={self.config.d_model}, n_layers={self.config.n_layers})")
+
+    @property
+    def has_control(self):
+        """True if the checkpoint accepts keypose / trajectory conditions."""
+        return isinstance(self.model, ControlledDenoiser)
+
+    @property
+    def denoiser(self):
+        """The text-only denoiser (the frozen base of a control model)."""
+        return self.model.base if self.has_control else self.model
+
+    # -- network evaluation
+
+    def _eps(self, x, t, a, drop, cond):
+        """ε̂ (B, T, D) of the text model (cond None) or the controlled one."""
+        if cond is None:
+            return self.denoiser(x, t, a, drop)
+        m = self.model
+        if m.single_controlnet or cond["has_keypose"]:
+            return m(x, t, a, cond, drop)
+        # no keypose: a' = a (E_k(K) = 0) in the adapter, Eq. (2); ControlNet as usual
+        r = m.controlnet(x, t, a, trajectory_frames(cond["trajectory"], cond["traj_mask"]), drop)
+        h = m.adapter.encoder.tokens(x, t, a, drop)
+        res = [z(o) for z, o in zip(m.adapter.zero, m.adapter.encoder.run_blocks(h, r))]
+        return m.base(x, t, a, drop, residuals=res)                          # Eq. (4)
+
+    def __call__(self, action, keypose_3d=None, keypose_at="first", trajectories_3d=None,
+                 seed=0, guidance_scale=7.5, steps=50, method="ddim", return_features=False,
+                 progress=False):
+        """Generate one 40-frame motion.
+
+        Parameters
+        ----------
+        action : str, the action text (e.g. ``"a person walks"``); a text outside the
+            checkpoint's cache is encoded (loads the text encoder once).
+        keypose_3d : None or (22, 3) array (m, canonical frame), pose at the key frame.
+        keypose_at : ``"first"`` | ``"last"``: key frame 0 or 39, trajectories over the first
+            / last ``t_r`` frames (:func:`build_condition`).
+        trajectories_3d : None or dict ``{joint_name: (t_r, 3) array}`` (m), joint names from
+            :data:`~physlab.motion.dataset.TRAJECTORY_JOINT_NAMES`, ``t_r <= 40``.
+        seed : int, seeds x_T and (DDPM) the step noise.
+        guidance_scale : float >= 0, w of Eq. (14) on the text (module docstring).
+        steps : int >= 1, denoising steps; method : ``"ddim"`` (η = 0) | ``"ddpm"``.
+        return_features : also return the (39, 137) de-normalised features.
+        progress : tqdm bar over the steps.
+
+        Returns
+        -------
+        (40, 22, 3) float64 joints in metres (and (39, 137) float64 features if asked).
+        """
+        if not isinstance(action, str) or not action.strip():
+            raise ValueError(f"action must be a non-empty text such as 'a person walks', got "
+                             f"{action!r}")
+        if keypose_at not in KEYPOSE_AT:
+            raise ValueError(f"keypose_at must be 'first' or 'last', got {keypose_at!r}")
+        if (isinstance(guidance_scale, bool) or not isinstance(guidance_scale, (int, float))
+                or not math.isfinite(guidance_scale) or guidance_scale < 0):
+            raise ValueError(f"guidance_scale must be a finite number >= 0 (Sketch2Anim uses "
+                             f"7.5; 0 = no text guidance), got {guidance_scale!r}")
+        if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps < 1:
+            raise ValueError(f"steps must be an integer >= 1 (e.g. 50 DDIM steps), got "
+                             f"{steps!r}")
+        if method not in METHODS:
+            raise ValueError(f"method must be 'ddim' or 'ddpm', got {method!r}")
+        if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)):
+            raise TypeError(f"seed must be an int, got {seed!r}")
+        N = self.config.n_joint_frames
+        c = build_condition(keypose_3d, keypose_at, trajectories_3d, n_frames=N)
+        controlled = c["has_keypose"] or c["has_trajectory"]
+        if controlled and not self.has_control:
+            raise ValueError(f"{self.path} is a '{self.stage}' (text-only) checkpoint: it "
+                             f"cannot take keypose_3d / trajectories_3d. Train the control "
+                             f"stage on it: `python -m physlab.motion.train --stage control "
+                             f"--base-ckpt {self.path} --out runs/control.pt`, or leave out "
+                             f"the keypose and trajectories")
+
+        a = torch.tensor(self.text_cache.get(action), dtype=torch.float32)[None]   # (1, 384)
+        cond = None
+        if controlled:
+            cond = {"trajectory": torch.tensor(c["trajectory"], dtype=torch.float32)[None],
+                    "traj_mask": torch.tensor(c["traj_mask"])[None],
+                    "keypose": torch.tensor(c["keypose"], dtype=torch.float32)[None],
+                    "key_frame": torch.tensor([c["key_frame"]], dtype=torch.int64),
+                    "has_keypose": c["has_keypose"]}
+        w = float(guidance_scale)
+        guided = w != 1.0
+
+        def model_fn(x, t, _):                                              # x (1, T, D)
+            if not guided:
+                return self._eps(x, t, a, torch.tensor([False]), cond)
+            cond2 = None if cond is None else {
+                k: (v.expand(2, *v.shape[1:]) if torch.is_tensor(v) else v)
+                for k, v in cond.items()}
+            eps = self._eps(x.expand(2, -1, -1), t.expand(2), a.expand(2, -1),
+                            torch.tensor([True, False]), cond2)             # (2, T, D)
+            return classifier_free_guidance(eps[:1], eps[1:], w)            # Eq. (14)
+
+        g = torch.Generator().manual_seed(int(seed))
+        shape = (1, self.config.n_frames, self.config.feature_dim)           # (1, 39, 137)
+        x0 = self.scheduler.sample(model_fn, shape, steps=int(steps), method=method,
+                                   generator=g, progress=progress)           # (1, T, D)
+        feats = self.stats.denormalize(x0[0].double().numpy())              # (39, 137)
+        joints = features_to_joints(feats)                                   # (40, 22, 3)
+        if not np.all(np.isfinite(joints)):
+            raise FloatingPointError(f"sampling with {self.path} produced NaN/inf joints; "
+                                     f"the checkpoint may be diverged")
+        return (joints, feats) if return_features else joints
+
+
+# ----------------------------------------------------------------------------- generate()
+
+
+@functools.lru_cache(maxsize=2)
+def _cached_generator(path, mtime_ns, size):
+    return Generator.from_checkpoint(path)
+
+
+def load_generator(checkpoint=None):
+    """:meth:`Generator.from_checkpoint`, cached per file (reloaded if the file changes);
+    ``checkpoint`` None -> :data:`DEFAULT_CHECKPOINT`."""
+    path = Path(checkpoint if checkpoint is not None else DEFAULT_CHECKPOINT).resolve()
+    if not path.is_file():
+        raise FileNotFoundError(f"no motion checkpoint at {path}; make one with "
+                                f"{_train_commands(path)}")
+    st = path.stat()
+    return _cached_generator(str(path), st.st_mtime_ns, st.st_size)
+
+
+def generate(action, keypose_3d=None, keypose_at="first", trajectories_3d=None, seed=0,
+             guidance_scale=7.5, steps=50, checkpoint=None, **options):
+    """``(40, 22, 3)`` joints (m) for an action text and optional keypose / trajectories
+    (DESIGN.md's ``physlab.motion.generate``); ``checkpoint`` defaults to
+    :data:`DEFAULT_CHECKPOINT`, loaded once and cached. ``options``: ``method``,
+    ``return_features``, ``progress`` of :meth:`Generator.__call__`."""
+    gen = load_generator(checkpoint)
+    return gen(action, keypose_3d=keypose_3d, keypose_at=keypose_at,
+               trajectories_3d=trajectories_3d, seed=seed, guidance_scale=guidance_scale,
+               steps=steps, **options)

@@ -1,0 +1,178 @@
+"""Tests of physlab.motion.generate: sampling from smoke checkpoints of both training stages
+(text only, + keypose, + trajectories, all: Sketch2Anim Fig. 13), determinism, CFG, input
+validation and checkpoint errors."""
+import numpy as np
+import pytest
+import torch
+
+from physlab.motion import generate as G
+from physlab.motion.dataset import TRAJECTORY_JOINT_NAMES
+from physlab.motion.generate import Generator, build_condition, generate, load_generator
+from physlab.motion.train import train
+
+torch.set_num_threads(1)
+
+SMOKE = {"smoke": True, "progress": False, "steps": 2, "num_threads": 1}
+STEPS = 8                                            # denoising steps in most tests (fast)
+
+
+@pytest.fixture(scope="module")
+def ckpts(real_data, tmp_path_factory):
+    d = tmp_path_factory.mktemp("motion_generate")
+    base = train(stage="base", out=str(d / "base.pt"), **SMOKE)["path"]
+    control = train(stage="control", base_ckpt=str(base), out=str(d / "control.pt"),
+                    **SMOKE)["path"]
+    torch.set_num_threads(1)                         # train() sets its own thread count
+    return {"base": base, "control": control}
+
+
+@pytest.fixture(scope="module")
+def gen(ckpts):
+    return Generator.from_checkpoint(ckpts["control"])
+
+
+@pytest.fixture(scope="module")
+def text(gen):
+    return gen.text_cache.texts[0]                   # a training text
+
+
+def _window(seed=0):
+    rng = np.random.default_rng(seed)
+    return np.cumsum(rng.normal(0, 0.01, (40, 22, 3)), axis=0) + np.linspace(0, 1.5, 22)[:, None]
+
+
+CONDITIONS = {
+    "text": {},
+    "keypose": {"keypose_3d": _window()[0]},
+    "trajectories": {"trajectories_3d": {"pelvis": _window()[:15, 0], "head": _window()[:40, 15]}},
+    "all_last": {"keypose_3d": _window()[-1], "keypose_at": "last",
+                 "trajectories_3d": {"left_wrist": _window()[-20:, 20]}},
+}
+
+
+@pytest.mark.parametrize("name", sorted(CONDITIONS))
+def test_every_condition_subset_runs(gen, text, name):
+    j = gen(text, steps=STEPS, **CONDITIONS[name])
+    assert j.shape == (40, 22, 3) and j.dtype == np.float64 and np.all(np.isfinite(j))
+
+
+def test_deterministic_per_seed_and_seed_matters(gen, text):
+    kw = dict(CONDITIONS["all_last"], steps=STEPS)
+    a, b = gen(text, seed=3, **kw), gen(text, seed=3, **kw)
+    assert np.array_equal(a, b)
+    assert not np.allclose(a, gen(text, seed=4, **kw))
+
+
+def test_guidance_scale_changes_the_sample(gen, text):
+    a = gen(text, guidance_scale=0.0, steps=STEPS)
+    b = gen(text, guidance_scale=7.5, steps=STEPS)
+    assert not np.allclose(a, b)
+
+
+def test_return_features_and_ddpm(gen, text):
+    j, f = gen(text, steps=STEPS, method="ddpm", return_features=True)
+    assert f.shape == (39, 137) and j.shape == (40, 22, 3)
+
+
+def test_known_text_does_not_load_the_encoder(ckpts):
+    g = Generator.from_checkpoint(ckpts["control"])
+    g(g.text_cache.texts[1], steps=2)
+    g("  " + g.text_cache.texts[1].replace(" ", "   "), steps=2)     # whitespace collapsed
+    assert g.text_cache.n_encoded == 0
+
+
+def test_unknown_text_is_encoded_once(ckpts):
+    g = Generator.from_checkpoint(ckpts["control"])   # smoke model: hash test encoder
+    g("a person juggles three balls", steps=2)
+    g("a person juggles three balls", steps=2)
+    assert g.text_cache.n_encoded == 1
+
+
+def test_base_checkpoint_text_only(ckpts, text):
+    g = Generator.from_checkpoint(ckpts["base"])
+    assert g.stage == "base" and not g.has_control
+    j = g(text, steps=STEPS)
+    assert j.shape == (40, 22, 3) and np.all(np.isfinite(j))
+    with pytest.raises(ValueError, match="text-only.*--stage control"):
+        g(text, keypose_3d=np.zeros((22, 3)), steps=2)
+    with pytest.raises(ValueError, match="text-only"):
+        g(text, trajectories_3d={"pelvis": np.zeros((5, 3))}, steps=2)
+
+
+def test_text_only_uses_the_frozen_base(ckpts, text):
+    """Text-only sampling with a control checkpoint equals the base checkpoint's sample."""
+    a = Generator.from_checkpoint(ckpts["base"])(text, steps=STEPS, seed=1)
+    b = Generator.from_checkpoint(ckpts["control"])(text, steps=STEPS, seed=1)
+    assert np.allclose(a, b)
+
+
+def test_build_condition_matches_condition_from_window():
+    from physlab.motion.dataset import TRAJECTORY_JOINTS, condition_from_window
+
+    w = _window(1)
+    for at, t_r in (("first", 12), ("last", 7), ("first", 40)):
+        ref = condition_from_window(w, t_r=t_r, keypose_at=at, joints=("pelvis", "right_foot"))
+        sl = slice(0, t_r) if at == "first" else slice(40 - t_r, 40)
+        c = build_condition(w[ref.key_frame], at, {n: w[sl, TRAJECTORY_JOINTS[i]]
+                                                   for i, n in enumerate(TRAJECTORY_JOINT_NAMES)
+                                                   if n in ("pelvis", "right_foot")})
+        assert c["key_frame"] == ref.key_frame
+        assert np.array_equal(c["traj_mask"], ref.mask)
+        assert np.allclose(c["trajectory"], ref.trajectory)
+        assert np.allclose(c["keypose"], ref.keypose)
+
+
+BAD = [
+    ({"action": ""}, ValueError, "non-empty"),
+    ({"action": "   "}, ValueError, "non-empty"),
+    ({"action": None}, ValueError, "non-empty"),
+    ({"keypose_3d": np.zeros((21, 3))}, ValueError, r"keypose_3d must have shape \(22, 3\)"),
+    ({"keypose_3d": np.full((22, 3), np.nan)}, ValueError, "NaN or inf"),
+    ({"keypose_at": "middle"}, ValueError, "'first' or 'last'"),
+    ({"trajectories_3d": {"left_hand": np.zeros((5, 3))}}, ValueError,
+     "unknown joint names.*pelvis, left_foot, right_foot, head, left_wrist, right_wrist"),
+    ({"trajectories_3d": {"pelvis": np.zeros((5, 2))}}, ValueError, r"shape \(t_r, 3\)"),
+    ({"trajectories_3d": {"pelvis": np.zeros((0, 3))}}, ValueError, r"shape \(t_r, 3\)"),
+    ({"trajectories_3d": {"pelvis": np.zeros((41, 3))}}, ValueError, "41 frames, more than"),
+    ({"trajectories_3d": {"head": np.array([[0, np.inf, 0]])}}, ValueError, "NaN or inf"),
+    ({"trajectories_3d": [np.zeros((5, 3))]}, TypeError, "must be a dict"),
+    ({"guidance_scale": -1.0}, ValueError, "guidance_scale must be"),
+    ({"guidance_scale": float("nan")}, ValueError, "guidance_scale must be"),
+    ({"steps": 0}, ValueError, "steps must be an integer >= 1"),
+    ({"method": "euler"}, ValueError, "'ddim' or 'ddpm'"),
+]
+
+
+@pytest.mark.parametrize("kw, exc, match", BAD)
+def test_bad_inputs_raise_helpful_errors(gen, text, kw, exc, match):
+    kw = {"action": text, **kw}
+    with pytest.raises(exc, match=match):
+        gen(kw.pop("action"), **kw)
+
+
+def test_checkpoint_errors(tmp_path, ckpts):
+    with pytest.raises(FileNotFoundError, match=r"none\.pt.*--stage control"):
+        Generator.from_checkpoint(tmp_path / "none.pt")
+    bad = tmp_path / "bad.pt"
+    bad.write_bytes(b"\x80\x02 not a checkpoint")
+    with pytest.raises(ValueError, match="bad.pt.*corrupt"):
+        Generator.from_checkpoint(bad)
+    half = tmp_path / "half.pt"
+    half.write_bytes(ckpts["control"].read_bytes()[:2000])        # truncated
+    with pytest.raises(ValueError, match="half.pt"):
+        Generator.from_checkpoint(half)
+    other = tmp_path / "other.pt"
+    torch.save({"weights": 1}, other)
+    with pytest.raises(ValueError, match="other.pt is not a physlab"):
+        Generator.from_checkpoint(other)
+
+
+def test_generate_function_default_and_cache(ckpts, text, tmp_path, monkeypatch):
+    assert G.DEFAULT_CHECKPOINT.name == "sketch2anim_control.pt"
+    monkeypatch.setattr(G, "DEFAULT_CHECKPOINT", tmp_path / "missing.pt")
+    with pytest.raises(FileNotFoundError, match="missing.pt.*physlab.motion.train"):
+        generate(text)
+    assert load_generator(ckpts["control"]) is load_generator(ckpts["control"])
+    j = generate(text, keypose_3d=_window()[0], steps=STEPS, checkpoint=ckpts["control"])
+    assert np.array_equal(j, load_generator(ckpts["control"])(text, keypose_3d=_window()[0],
+                                                             steps=STEPS))
