@@ -42,3 +42,11 @@ def test_bench_inbetween_quick_runs(capsys):
     assert row["flipped"] == 0 and row["handle_error_px"] < 1.0
     assert row["deform_gradient"] > 0
     assert "paper Table 2" in capsys.readouterr().out
+
+
+def test_bench_motion_quick_runs(real_data, capsys):
+    bench_motion = _load("bench_motion")
+    out = bench_motion.main(["--quick", "--threads", "1", "--repeats", "1"])
+    assert out["base"]["windows_per_s"] > 0 and out["control"]["windows_per_s"] > 0
+    assert out["seconds_control"] > 0 and out["seconds_reference"] > 0
+    assert "RTX 4090" in capsys.readouterr().out

@@ -1,0 +1,129 @@
+"""Benchmark: the Sketch2Anim-style motion generator on this CPU — sampling and training speed.
+
+Run it with ``make bench`` (all benchmarks) or on its own::
+
+    .venv/bin/python benchmarks/bench_motion.py            # full-size model, ~2 min
+    .venv/bin/python benchmarks/bench_motion.py --quick    # smoke-size model, for the tests
+
+It prints a table and never asserts on time. Needs the Bandai-Namco clips of
+``../shared/data`` (training reads them); exits with a message when they are missing.
+
+What is measured
+----------------
+1. **Training throughput** (windows per second, excluding the first step): a short run of
+   :func:`physlab.motion.train.train` for stage ``base`` (text-conditioned denoiser) and
+   stage ``control`` (trajectory ControlNet + keypose adapter on the frozen base), with the
+   default model size (``DenoiserConfig``) and batch, one process with ``--threads`` threads
+   (2; ``torchrun`` with two 1-thread processes is not faster on this machine).
+   The weights are whatever these few steps give — sampling speed does not depend on them.
+2. **Sampling**: one 40-frame clip with classifier-free guidance (w = 7.5, two network
+   passes per step, batched) and 50 DDIM steps on ``--sample-threads`` threads (1: with a
+   batch of 2 the second thread costs more than it gives), text only and with keypose + trajectories
+   (:class:`physlab.motion.generate.Generator`), median of ``--repeats`` runs.
+   Reference, measured in the same run: the same clip with the DDPM sampler over all training
+   timesteps (999 with the MLD scheduler's ``steps_offset = 1``).
+   The paper reports 0.5 s per clip on an RTX 4090, guidance included (printed for
+   orientation). Target (issue 5): under 1 s per clip on 2 CPU cores.
+3. **Peak memory**: the process's maximum resident set size, and the checkpoint sizes.
+"""
+from __future__ import annotations
+
+import argparse
+import resource
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+PAPER_SECONDS_PER_CLIP = 0.5   # Sketch2Anim, RTX 4090, with guidance
+TARGET_SECONDS_PER_CLIP = 1.0
+
+
+def _parser():
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--train-steps", type=int, default=20)
+    p.add_argument("--repeats", type=int, default=3)
+    p.add_argument("--threads", type=int, default=2, help="torch threads for training")
+    p.add_argument("--sample-threads", type=int, default=1,
+                   help="torch threads for sampling (batch-2 matmuls: 1 thread is fastest here)")
+    p.add_argument("--quick", action="store_true", help="smoke-size model, 2 training steps")
+    return p
+
+
+def _time(fn, repeats):
+    times = []
+    for _ in range(repeats):
+        tic = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - tic)
+    return float(np.median(times))
+
+
+def main(argv=None):
+    args = _parser().parse_args(argv)
+    import torch
+
+    from physlab.datasets import external_data_dir
+    from physlab.motion.generate import Generator
+    from physlab.motion.train import train
+
+    if external_data_dir() is None:
+        print("bench_motion: the Bandai-Namco clips (../shared/data) are needed for training; "
+              "skipped")
+        return {"skipped": True}
+    common = dict(progress=False, num_threads=args.threads)
+    if args.quick:
+        common.update(smoke=True, steps=2)
+    else:
+        common.update(steps=args.train_steps)
+    out = {}
+    with tempfile.TemporaryDirectory() as d:
+        d = Path(d)
+        base = train(stage="base", out=str(d / "base.pt"), **common)
+        control = train(stage="control", base_ckpt=str(base["path"]), out=str(d / "control.pt"),
+                        **common)
+        sizes = {k: Path(r["path"]).stat().st_size / 2**20 for k, r in
+                 (("base", base), ("control", control))}
+        torch.set_num_threads(args.sample_threads)
+        gen = Generator.from_checkpoint(control["path"])
+        text = gen.text_cache.texts[0]
+        keypose = np.zeros((22, 3))
+        keypose[:, 1] = np.linspace(0.0, 1.6, 22)
+        traj = {"pelvis": np.c_[np.zeros(10), np.full(10, 0.9), np.linspace(0, 0.5, 10)]}
+        steps = 2 if args.quick else 50
+        cfg = gen.scheduler.config   # every training timestep the spacing allows (999 with MLD's offset)
+        ddpm_steps = 4 if args.quick else cfg.num_train_timesteps - cfg.steps_offset
+        t_text = _time(lambda: gen(text, steps=steps), args.repeats)
+        t_ctrl = _time(lambda: gen(text, keypose_3d=keypose, trajectories_3d=traj, steps=steps),
+                       args.repeats)
+        t_ref = _time(lambda: gen(text, keypose_3d=keypose, trajectories_3d=traj, method="ddpm",
+                                  steps=ddpm_steps), 1)
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024  # KiB -> MiB on Linux
+    print(f"motion generator: training on {args.threads} thread(s), sampling on "
+          f"{args.sample_threads}; model d_model={gen.config.d_model}, {gen.config.n_layers} blocks")
+    print("what | value")
+    print("--- | ---")
+    print(f"parameters base / control (trainable) | {base['n_params']:,} / "
+          f"{control['n_params']:,} ({control['n_trainable']:,})")
+    print(f"training, base stage | {base['windows_per_s']:.0f} windows/s")
+    print(f"training, control stage | {control['windows_per_s']:.0f} windows/s")
+    print(f"clip, text only, CFG, DDIM {steps} | {t_text:.3f} s")
+    print(f"clip, keypose + trajectory, CFG, DDIM {steps} | {t_ctrl:.3f} s")
+    print(f"reference: same clip, DDPM {ddpm_steps} | {t_ref:.3f} s (DDIM/DDPM = "
+          f"{t_ctrl / t_ref:.3f})")
+    print(f"checkpoints base / control (resumable, with optimizer) | {sizes['base']:.1f} / "
+          f"{sizes['control']:.1f} MiB")
+    print(f"peak resident memory | {peak:.0f} MiB")
+    verdict = "met" if t_ctrl < TARGET_SECONDS_PER_CLIP else "NOT met"
+    print(f"\ntarget < {TARGET_SECONDS_PER_CLIP:.0f} s per clip with guidance: {verdict}; paper: "
+          f"{PAPER_SECONDS_PER_CLIP} s on an RTX 4090 → ratio {t_ctrl / PAPER_SECONDS_PER_CLIP:.2f}")
+    out.update(base=base, control=control, seconds_text=t_text, seconds_control=t_ctrl,
+               seconds_reference=t_ref, peak_mib=peak, checkpoint_mib=sizes)
+    return out
+
+
+if __name__ == "__main__":
+    main()
+    sys.exit(0)

@@ -1,0 +1,367 @@
+"""Held-out evaluation of the motion generator (the analogue of Sketch2Anim Table 2 / A1-A4).
+
+Test set: the Bandai-Namco take-002 clips (:func:`~physlab.motion.dataset.split_by_take`),
+cut into canonical 40-frame windows (:func:`~physlab.motion.dataset.make_windows`, stride
+10); ``windows`` of them are taken at evenly spaced indices (deterministic, spread over the
+clips). Each window ``i`` gets one condition (:func:`~physlab.motion.dataset.
+condition_from_window`), Sketch2Anim's "Cross" protocol (Sec. 7.1, after OmniControl):
+
+* keypose at the **first** frame for even ``i``, the **last** frame for odd ``i``;
+* ``t_r`` uniform in ``MIN_T_R .. 40`` and one of the 63 joint combinations
+  (:data:`~physlab.motion.dataset.JOINT_COMBINATIONS`, uniform), both drawn from
+  ``np.random.default_rng(seed)`` in window order — the same conditions for every row;
+* the text is the window's action text, the sampling seed of window ``i`` is ``seed + i``.
+
+Rows of the table:
+
+* ``real clips`` — the held-out windows themselves (keypose / trajectory errors are 0 by
+  definition: the condition is cut from the window);
+* ``text only`` — the text denoiser of the ``--control`` checkpoint (its frozen base), no
+  keypose / trajectories; its keypose and trajectory errors are measured against the same
+  conditions (how far an unconditioned motion lands from the target);
+* ``keypose + trajectory`` — the full conditioning (:class:`~physlab.motion.generate.
+  Generator`);
+* ``single ControlNet`` — the Table 2 ablation, only with ``--single-controlnet CKPT``.
+
+Columns (:mod:`physlab.motion.metrics`):
+
+* foot-skating ratio (GMD), mean over clips;
+* keypose MPJPE-3D (m) at the key frame, mean over clips (Sketch2Anim "MPJPE-3D");
+* trajectory error (m): mean distance over all controlled (frame, joint) points of all
+  clips, OmniControl's ``sum / mask.sum()`` ("Avg. Err.-3D");
+* AUJ and PJ (supp. D, Tab. A4, FlowMDM's definitions): the jerk curve averaged over the
+  clips, ``PJ`` its peak, ``AUJ = sum_t |jbar_t - 0.0330|`` (reference
+  :data:`~physlab.motion.metrics.HUMANML3D_GT_PEAK_JERK`, per-frame units, as published).
+  Sketch2Anim evaluates them on the 20 blended frames; here on whole 40-frame clips, so
+  compare rows with the ``real clips`` row, not with the paper;
+* seconds per clip: wall time of one :class:`~physlab.motion.generate.Generator` call
+  (``steps`` DDIM steps, CFG as a batch of 2); 0 for the real clips.
+
+FID, R-precision and MM Dist need a trained motion/text feature extractor (TMR / the
+HumanML3D evaluator), which physlab does not have; they are left out.
+
+Usage::
+
+    python -m physlab.motion.evaluate --control runs/control.pt \\
+        [--single-controlnet runs/single.pt] [--windows 64] [--steps 50] [--guidance 7.5] \\
+        [--seed 0] [--out runs/eval] [--no-progress]
+
+    from physlab.motion.evaluate import evaluate
+    rows = evaluate("runs/control.pt", windows=64)     # {"real clips": {...}, ...}
+
+Data: Bandai-Namco-Research-Motiondataset, CC BY-NC 4.0, © 2022 Bandai Namco Research Inc.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from physlab._io import atomic_write_text
+
+from .dataset import (
+    BANDAI_NAMCO_ATTRIBUTION,
+    JOINT_COMBINATIONS,
+    TEST_TAKES,
+    TRAJECTORY_JOINT_NAMES,
+    TRAJECTORY_JOINTS,
+    condition_from_window,
+    load_clips,
+    make_windows,
+    read_labels,
+    split_by_take,
+)
+from .metrics import HUMANML3D_GT_PEAK_JERK, foot_skating_ratio, jerk, mpjpe, trajectory_error
+
+__all__ = [
+    "COLUMNS",
+    "MIN_T_R",
+    "ROW_NAMES",
+    "clip_metrics",
+    "eval_conditions",
+    "evaluate",
+    "format_table",
+    "held_out_windows",
+    "main",
+]
+
+#: Rows of the table, in order ("single ControlNet" only with a second checkpoint).
+ROW_NAMES = ("real clips", "text only", "keypose + trajectory", "single ControlNet")
+#: Keys of every row -> column header of the table.
+COLUMNS = {
+    "foot_skating": "foot skating ↓",
+    "keypose_mpjpe_3d": "keypose MPJPE-3D (m) ↓",
+    "trajectory_error_3d": "traj. err.-3D (m) ↓",
+    "auj": "AUJ ↓",
+    "pj": "PJ",
+    "seconds_per_clip": "s / clip",
+}
+#: Shortest trajectory drawn for a test condition (frames), as in training.
+MIN_T_R = 5
+WINDOW_LENGTH = 40
+WINDOW_STRIDE = 10
+
+
+# ----------------------------------------------------------------------------- test data
+
+
+def held_out_windows(windows=64, data_root=None):
+    """``windows`` held-out 40-frame windows at evenly spaced indices.
+
+    Parameters
+    ----------
+    windows : int >= 1; more than available -> all of them (with a warning).
+    data_root : None or the Bandai-Namco folder (:func:`~physlab.motion.dataset.
+        bandai_namco_dir`).
+
+    Returns
+    -------
+    dict: ``joints`` (n, 40, 22, 3) float64 canonical windows (m), ``text`` list of n str,
+    ``clip_id`` list of n str, ``start`` (n,) int, ``n_available`` int.
+    """
+    n = _check_windows(windows)
+    ids = [Path(r["file"]).stem for r in read_labels(data_root) if r["take"] in TEST_TAKES]
+    _, test = split_by_take(load_clips(data_root, clip_ids=ids))
+    win = make_windows(test, length=WINDOW_LENGTH, stride=WINDOW_STRIDE)
+    M = len(win)
+    if n > M:
+        warnings.warn(f"only {M} held-out windows exist; evaluating all of them instead of "
+                      f"{n}")
+        n = M
+    idx = np.round(np.linspace(0, M - 1, n)).astype(int)                   # distinct, n <= M
+    return {"joints": win.joints[idx], "text": [win.text[i] for i in idx],
+            "clip_id": [win.clip_id[i] for i in idx], "start": win.start[idx],
+            "n_available": M}
+
+
+def eval_conditions(joints, seed=0):
+    """One Sketch2Anim "Cross" condition per window (module docstring).
+
+    Parameters
+    ----------
+    joints : (n, 40, 22, 3) float array of windows (m).
+    seed : int, seeds ``t_r`` and the joint combination.
+
+    Returns
+    -------
+    list of n :class:`~physlab.motion.dataset.Condition`.
+    """
+    rng = np.random.default_rng(seed)
+    conds = []
+    for i, w in enumerate(joints):
+        t_r = int(rng.integers(MIN_T_R, len(w) + 1))
+        combo = JOINT_COMBINATIONS[int(rng.integers(len(JOINT_COMBINATIONS)))]
+        conds.append(condition_from_window(w, t_r=t_r, keypose_at="first" if i % 2 == 0
+                                           else "last", joints=combo))
+    return conds
+
+
+def _generator_kwargs(cond):
+    """A :class:`Condition` as ``keypose_3d`` / ``keypose_at`` / ``trajectories_3d``."""
+    trajs = {name: cond.trajectory[cond.mask[:, c], c]                     # (t_r, 3)
+             for c, name in enumerate(TRAJECTORY_JOINT_NAMES) if cond.mask[:, c].any()}
+    return {"keypose_3d": cond.keypose, "trajectories_3d": trajs,
+            "keypose_at": "first" if cond.key_frame == 0 else "last"}
+
+
+# ----------------------------------------------------------------------------- metrics
+
+
+def clip_metrics(motions, conds, seconds=0.0):
+    """One table row from ``n`` clips and their conditions.
+
+    Parameters
+    ----------
+    motions : (n, 40, 22, 3) float array (m), generated (or real) clips.
+    conds : list of n :class:`Condition`.
+    seconds : float, mean seconds per clip.
+
+    Returns
+    -------
+    dict with the keys of :data:`COLUMNS` (floats) and ``n_clips``.
+    """
+    x = np.asarray(motions, dtype=float)
+    key = np.stack([x[i, c.key_frame] for i, c in enumerate(conds)])       # (n, 22, 3)
+    K = np.stack([c.keypose for c in conds])                               # (n, 22, 3)
+    auj, pj = jerk(x, reference=HUMANML3D_GT_PEAK_JERK)
+    return {
+        "foot_skating": float(np.mean(foot_skating_ratio(x))),
+        "keypose_mpjpe_3d": mpjpe(key, K),                 # equal joints per clip: mean of means
+        "trajectory_error_3d": trajectory_error(
+            x, np.stack([c.trajectory for c in conds]), TRAJECTORY_JOINTS,
+            np.stack([c.mask for c in conds])),            # pooled over controlled points
+        "auj": auj, "pj": pj, "seconds_per_clip": float(seconds), "n_clips": len(x),
+    }
+
+
+# ----------------------------------------------------------------------------- evaluate
+
+
+def _check_windows(windows):
+    if isinstance(windows, bool) or not isinstance(windows, (int, np.integer)) or windows < 1:
+        raise ValueError(f"windows must be an integer >= 1 (number of held-out clips to "
+                         f"evaluate, e.g. 64), got {windows!r}")
+    return int(windows)
+
+
+def _load(path, flag):
+    from .generate import Generator
+
+    if path is None or not Path(path).is_file():
+        raise FileNotFoundError(
+            f"{flag} checkpoint {path} does not exist; train one with `python -m "
+            f"physlab.motion.train --stage base --out runs/base.pt` then `python -m "
+            f"physlab.motion.train --stage control --base-ckpt runs/base.pt --out {path}`"
+            + (" --single-controlnet" if flag == "--single-controlnet" else "")
+            + " (add --smoke for a seconds-long test model)")
+    gen = Generator.from_checkpoint(path)
+    if not gen.has_control:
+        raise ValueError(f"{flag} {path} is a '{gen.stage}' (text-only) checkpoint; give a "
+                         f"control checkpoint (`python -m physlab.motion.train --stage control "
+                         f"--base-ckpt {path} --out runs/control.pt`)")
+    single = bool(gen.model.single_controlnet)
+    if flag == "--control" and single:
+        warnings.warn(f"--control {path} is a single-ControlNet checkpoint; its row is "
+                      f"labelled 'keypose + trajectory'")
+    if flag == "--single-controlnet" and not single:
+        warnings.warn(f"--single-controlnet {path} was not trained with single_controlnet="
+                      f"True; its row is labelled 'single ControlNet' anyway")
+    return gen
+
+
+def _sample(gen, data, conds, controlled, steps, guidance, seed, progress, label):
+    from tqdm.auto import tqdm
+
+    out, total = [], 0.0
+    for i in tqdm(range(len(conds)), desc=label, disable=not progress, leave=False):
+        kw = _generator_kwargs(conds[i]) if controlled else {}
+        tic = time.perf_counter()
+        out.append(gen(data["text"][i], seed=seed + i, guidance_scale=guidance, steps=steps,
+                       **kw))                                              # (40, 22, 3)
+        total += time.perf_counter() - tic
+    return np.stack(out), total / len(conds)
+
+
+def evaluate(control, single_controlnet=None, windows=64, steps=50, guidance=7.5, seed=0,
+             out=None, progress=True, data_root=None):
+    """Evaluate a control checkpoint on held-out Bandai-Namco windows (module docstring).
+
+    Keyword names match the CLI flags.
+
+    Parameters
+    ----------
+    control : path of a control checkpoint (``python -m physlab.motion.train --stage
+        control``).
+    single_controlnet : None or path of a ``--single-controlnet`` control checkpoint.
+    windows : int >= 1, held-out windows evaluated.
+    steps : int >= 1, DDIM steps; guidance : float >= 0, CFG scale w (Eq. (14)).
+    seed : int, seeds the conditions (``rng``) and the samples (``seed + i``).
+    out : None or a folder: writes ``table.md`` and ``rows.json`` there (atomically).
+    progress : bool, tqdm bars.
+    data_root : None or the Bandai-Namco folder.
+
+    Returns
+    -------
+    dict ``{row name: {column key: float, "n_clips": int}}`` in :data:`ROW_NAMES` order;
+    column keys are those of :data:`COLUMNS` (m for the errors, s for the time).
+    """
+    n = _check_windows(windows)
+    if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps < 1:
+        raise ValueError(f"steps must be an integer >= 1 (e.g. 50 DDIM steps), got {steps!r}")
+    if (isinstance(guidance, bool) or not isinstance(guidance, (int, float))
+            or not math.isfinite(guidance) or guidance < 0):
+        raise ValueError(f"guidance must be a finite number >= 0 (Sketch2Anim uses 7.5), got "
+                         f"{guidance!r}")
+    gens = {"keypose + trajectory": _load(control, "--control")}
+    if single_controlnet is not None:
+        gens["single ControlNet"] = _load(single_controlnet, "--single-controlnet")
+
+    data = held_out_windows(n, data_root=data_root)
+    conds = eval_conditions(data["joints"], seed=seed)
+    kw = {"steps": int(steps), "guidance": float(guidance), "seed": int(seed), "progress": progress}
+    rows = {"real clips": clip_metrics(data["joints"], conds)}
+    x, s = _sample(gens["keypose + trajectory"], data, conds, False, label="text only", **kw)
+    rows["text only"] = clip_metrics(x, conds, s)
+    for name, gen in gens.items():
+        x, s = _sample(gen, data, conds, True, label=name, **kw)
+        rows[name] = clip_metrics(x, conds, s)
+
+    if out is not None:
+        out = Path(out)
+        config = {"control": str(control), "single_controlnet": None if single_controlnet
+                  is None else str(single_controlnet), "windows": len(conds),
+                  "windows_available": data["n_available"], "steps": int(steps),
+                  "guidance": float(guidance), "seed": int(seed), "min_t_r": MIN_T_R,
+                  "test_takes": list(TEST_TAKES)}
+        atomic_write_text(out / "table.md", format_table(rows) + "\n")
+        atomic_write_text(out / "rows.json", json.dumps(
+            {"rows": rows, "config": config, "attribution": BANDAI_NAMCO_ATTRIBUTION},
+            indent=1))
+    return rows
+
+
+def format_table(rows):
+    """Markdown table of :func:`evaluate`'s rows (errors in m, time in s) with the data
+    attribution line."""
+    head = ["method", *COLUMNS.values()]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for name, r in rows.items():
+        cells = [f"{r['foot_skating']:.4f}", f"{r['keypose_mpjpe_3d']:.4f}",
+                 f"{r['trajectory_error_3d']:.4f}", f"{r['auj']:.4f}", f"{r['pj']:.4f}",
+                 "—" if name == "real clips" else f"{r['seconds_per_clip']:.3f}"]
+        lines.append("| " + " | ".join([name, *cells]) + " |")
+    n = next(iter(rows.values()))["n_clips"] if rows else 0
+    lines += ["", (f"{n} held-out windows (take {', '.join(TEST_TAKES)}), one Cross condition "
+              f"each; AUJ relative to PJ_GT = {HUMANML3D_GT_PEAK_JERK:.4f} m/frame³."),
+              f"Data: {BANDAI_NAMCO_ATTRIBUTION}"]
+    return "\n".join(lines)
+
+
+# ----------------------------------------------------------------------------- CLI
+
+
+def _parser():
+    p = argparse.ArgumentParser(
+        prog="python -m physlab.motion.evaluate",
+        description="Held-out Bandai-Namco evaluation of the motion generator (Sketch2Anim "
+                    "Table 2 analogue): real clips, text only, keypose + trajectory, single "
+                    "ControlNet; foot skating, MPJPE-3D, trajectory error, AUJ, PJ, s/clip.")
+    p.add_argument("--control", required=True, help="control checkpoint (train --stage control)")
+    p.add_argument("--single-controlnet", default=None,
+                   help="optional single-ControlNet control checkpoint (Table 2 ablation)")
+    p.add_argument("--windows", type=int, default=64, help="held-out windows (default 64)")
+    p.add_argument("--steps", type=int, default=50, help="DDIM steps (default 50)")
+    p.add_argument("--guidance", type=float, default=7.5, help="CFG scale (default 7.5)")
+    p.add_argument("--seed", type=int, default=0, help="conditions and sampling seed")
+    p.add_argument("--out", type=Path, default=None, help="folder for table.md and rows.json")
+    p.add_argument("--data-root", default=None, help="Bandai-Namco folder (labels.csv)")
+    p.add_argument("--no-progress", action="store_true", help="no progress bars")
+    return p
+
+
+def main(argv=None):
+    """Command-line entry point: prints the table; returns the rows."""
+    p = _parser()
+    args = p.parse_args(argv)
+    try:
+        rows = evaluate(args.control, single_controlnet=args.single_controlnet,
+                        windows=args.windows, steps=args.steps, guidance=args.guidance,
+                        seed=args.seed, out=args.out, progress=not args.no_progress,
+                        data_root=args.data_root)
+    except (FileNotFoundError, ValueError) as e:
+        p.error(str(e))                                                    # exit code 2
+    print(format_table(rows))
+    if args.out is not None:
+        print(f"wrote {args.out / 'table.md'} and {args.out / 'rows.json'}")
+    return rows
+
+
+if __name__ == "__main__":
+    main()
+    sys.exit(0)

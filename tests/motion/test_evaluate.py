@@ -1,0 +1,164 @@
+"""Tests of physlab.motion.evaluate: the held-out table from smoke checkpoints (real clips,
+text only, keypose + trajectory, single ControlNet), the test conditions, the CLI outputs and
+the error cases."""
+import json
+import math
+
+import numpy as np
+import pytest
+import torch
+
+from physlab.motion.dataset import BANDAI_NAMCO_ATTRIBUTION
+from physlab.motion.evaluate import (
+    COLUMNS,
+    MIN_T_R,
+    ROW_NAMES,
+    _generator_kwargs,
+    clip_metrics,
+    eval_conditions,
+    evaluate,
+    format_table,
+    held_out_windows,
+    main,
+)
+from physlab.motion.generate import build_condition
+from physlab.motion.train import train
+
+torch.set_num_threads(1)
+
+SMOKE = {"smoke": True, "progress": False, "steps": 2, "num_threads": 1}
+FAST = {"windows": 3, "steps": 2, "progress": False}
+
+
+@pytest.fixture(scope="module")
+def ckpts(real_data, tmp_path_factory):
+    d = tmp_path_factory.mktemp("motion_evaluate")
+    base = train(stage="base", out=str(d / "base.pt"), **SMOKE)["path"]
+    control = train(stage="control", base_ckpt=str(base), out=str(d / "control.pt"),
+                    **SMOKE)["path"]
+    single = train(stage="control", base_ckpt=str(base), out=str(d / "single.pt"),
+                   single_controlnet=True, **SMOKE)["path"]
+    torch.set_num_threads(1)                         # train() sets its own thread count
+    return {"base": base, "control": control, "single": single}
+
+
+@pytest.fixture(scope="module")
+def rows(ckpts):
+    return evaluate(ckpts["control"], single_controlnet=ckpts["single"], **FAST)
+
+
+def test_all_rows_with_finite_numbers(rows):
+    assert tuple(rows) == ROW_NAMES
+    for name, r in rows.items():
+        assert set(r) == set(COLUMNS) | {"n_clips"}, name
+        assert r["n_clips"] == 3
+        assert all(math.isfinite(r[k]) and r[k] >= 0 for k in COLUMNS), (name, r)
+
+
+def test_real_clips_have_zero_control_error(rows):
+    r = rows["real clips"]
+    assert r["keypose_mpjpe_3d"] == 0.0 and r["trajectory_error_3d"] == 0.0
+    assert r["seconds_per_clip"] == 0.0
+    assert 0.0 <= r["foot_skating"] <= 1.0
+
+
+def test_generated_rows_are_timed_and_differ_from_data(rows):
+    for name in ROW_NAMES[1:]:
+        assert rows[name]["seconds_per_clip"] > 0
+        assert rows[name]["keypose_mpjpe_3d"] > 0 and rows[name]["trajectory_error_3d"] > 0
+
+
+def test_single_controlnet_row_only_with_second_checkpoint(ckpts):
+    r = evaluate(ckpts["control"], windows=1, steps=1, progress=False)
+    assert tuple(r) == ROW_NAMES[:3]
+
+
+def test_evaluation_is_deterministic(ckpts, rows):
+    again = evaluate(ckpts["control"], single_controlnet=ckpts["single"], **FAST)
+    for name in ROW_NAMES:
+        for k in COLUMNS:
+            if k != "seconds_per_clip":
+                assert again[name][k] == rows[name][k], (name, k)
+
+
+def test_held_out_windows_and_conditions(real_data):
+    data = held_out_windows(4)
+    assert data["joints"].shape == (4, 40, 22, 3) and len(data["text"]) == 4
+    assert len({(c, s) for c, s in zip(data["clip_id"], data["start"])}) == 4   # distinct
+    conds = eval_conditions(data["joints"], seed=0)
+    assert [c.key_frame for c in conds] == [0, 39, 0, 39]       # first / last alternate
+    assert all(MIN_T_R <= c.t_r <= 40 for c in conds)
+    again = eval_conditions(data["joints"], seed=0)
+    assert all(np.array_equal(a.mask, b.mask) for a, b in zip(conds, again))
+    # the generator receives exactly the condition layout of condition_from_window
+    for c in conds:
+        b = build_condition(**_generator_kwargs(c))
+        assert np.array_equal(b["traj_mask"], c.mask) and b["key_frame"] == c.key_frame
+        assert np.allclose(b["trajectory"], c.trajectory) and np.allclose(b["keypose"], c.keypose)
+
+
+def test_clip_metrics_analytic():
+    """A motionless clip standing at the condition: no skating, no error, zero jerk."""
+    x = np.zeros((2, 40, 22, 3))
+    x[..., 1] = 0.5                                              # everything 0.5 m up
+    conds = eval_conditions(x, seed=1)
+    r = clip_metrics(x, conds, seconds=0.25)
+    assert r["foot_skating"] == 0 and r["keypose_mpjpe_3d"] == 0
+    assert r["trajectory_error_3d"] == 0 and r["pj"] == 0
+    assert r["auj"] == pytest.approx(37 * 0.033031363)          # |0 - PJ_GT| over 37 frames
+    shifted = clip_metrics(x + [0.0, 0.0, 0.1], conds)           # 10 cm off everywhere
+    assert shifted["keypose_mpjpe_3d"] == pytest.approx(0.1)
+    assert shifted["trajectory_error_3d"] == pytest.approx(0.1)
+
+
+def test_format_table_has_rows_and_attribution(rows):
+    t = format_table(rows)
+    assert all(f"| {name} |" in t for name in ROW_NAMES)
+    assert BANDAI_NAMCO_ATTRIBUTION in t
+
+
+def test_cli_writes_table_and_rows(ckpts, tmp_path, capsys):
+    out = tmp_path / "eval"
+    res = main(["--control", str(ckpts["control"]), "--windows", "2", "--steps", "1",
+                "--out", str(out), "--no-progress"])
+    printed = capsys.readouterr().out
+    assert BANDAI_NAMCO_ATTRIBUTION in printed and "| keypose + trajectory |" in printed
+    assert (out / "table.md").read_text().startswith("| method |")
+    saved = json.loads((out / "rows.json").read_text())
+    assert saved["rows"] == res and saved["config"]["windows"] == 2
+    assert saved["attribution"] == BANDAI_NAMCO_ATTRIBUTION
+    assert not list(out.glob(".*"))                              # no temp files left
+
+
+def test_missing_checkpoint(ckpts, tmp_path):
+    with pytest.raises(FileNotFoundError, match="--control"):
+        evaluate(tmp_path / "nope.pt", **FAST)
+    with pytest.raises(FileNotFoundError, match="--single-controlnet"):
+        evaluate(ckpts["control"], single_controlnet=tmp_path / "nope.pt", **FAST)
+    with pytest.raises(SystemExit) as e:
+        main(["--control", str(tmp_path / "nope.pt"), "--no-progress"])
+    assert e.value.code == 2
+
+
+def test_base_checkpoint_is_not_a_control_checkpoint(ckpts):
+    with pytest.raises(ValueError, match="text-only"):
+        evaluate(ckpts["base"], **FAST)
+
+
+@pytest.mark.parametrize("bad", [0, -3, 2.5, True])
+def test_bad_window_count(ckpts, bad):
+    with pytest.raises(ValueError, match="windows must be an integer >= 1"):
+        evaluate(ckpts["control"], windows=bad, steps=2, progress=False)
+
+
+def test_bad_steps_and_guidance(ckpts):
+    with pytest.raises(ValueError, match="steps"):
+        evaluate(ckpts["control"], windows=1, steps=0)
+    with pytest.raises(ValueError, match="guidance"):
+        evaluate(ckpts["control"], windows=1, guidance=float("nan"))
+
+
+def test_single_controlnet_flag_warns_for_a_plain_control_checkpoint(ckpts):
+    with pytest.warns(UserWarning, match="single_controlnet"):
+        evaluate(ckpts["control"], single_controlnet=ckpts["control"], windows=1, steps=1,
+                 progress=False)
