@@ -41,19 +41,6 @@ __all__ = [
     "animated_drawing",
     "ANIMATED_DRAWINGS",
     "ANIMATED_DRAWINGS_ATTRIBUTION",
-    # procedural cartoon characters with ground-truth poses (physlab.characters)
-    "CHARACTER_STYLES",
-    "CHARACTER_JOINTS",
-    "CHARACTER_PARTS",
-    "ADJACENT_PARTS",
-    "PAINT_ORDER",
-    "character_skeleton",
-    "pose_character",
-    "render_character",
-    "character_part_labels",
-    "part_overlaps",
-    "InbetweenPair",
-    "inbetween_benchmark",
 ]
 
 #: Near-black ink (RGB in [0, 1]).
@@ -528,3 +515,7 @@ from .characters import (
     pose_character,
     render_character,
 )
+
+from . import characters as _characters  # noqa: E402
+
+__all__ += list(_characters.__all__)  # procedural characters with ground-truth poses

@@ -182,13 +182,13 @@ def _cache_path(cache_dir, clip_id, fps):
 
 
 def _load_cached(path, source_bytes):
+    """The cached joints, or None when the entry is missing, unreadable or stale."""
     try:
         with np.load(path) as z:
-            if int(z["source_bytes"]) == source_bytes:
-                return np.array(z["joints"])
+            fresh = int(z["source_bytes"]) == source_bytes
+            return np.array(z["joints"]) if fresh else None
     except (OSError, KeyError, ValueError):
-        pass                                   # unreadable / stale cache: recompute
-    return None
+        return None                            # unreadable cache: recompute
 
 
 def load_clips(root=None, contents=None, clip_ids=None, fps=20, cache_dir=None,
