@@ -605,6 +605,9 @@ def main(argv=None):
             print(f"inference weights (fp16) -> {export}")
     if int(os.environ.get("WORLD_SIZE", "1")) > 1:
         import torch.distributed as dist
+        # every rank waits for rank 0's printing / export, then all leave the group together:
+        # a rank tearing gloo down while its peer still talks to it can abort at exit
+        dist.barrier()
         dist.destroy_process_group()
     return res
 
