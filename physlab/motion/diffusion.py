@@ -351,6 +351,12 @@ class NoiseScheduler:
         a = self._per_sample(self.alphas_cumprod[t], x_t)
         return (x_t - a.sqrt() * x0) / (1 - a).sqrt()
 
+    def split_output(self, model_output: torch.Tensor, x_t: torch.Tensor, t):
+        """``(x̂₀, ε̂)`` implied by a network output for ``config.prediction_type`` (for
+        ``"epsilon"`` x̂₀ is Sketch2Anim Eq. (7)); x̂₀ unclipped. Shapes (B, ...); t int or
+        (B,) int tensor."""
+        return self._x0_eps(model_output, self._timesteps(t), x_t)
+
     def _x0_eps(self, model_output, t, x_t):
         """(x̂₀, ε̂) from the network output for ``config.prediction_type``; x̂₀ unclipped."""
         _check_finite(x_t, "x_t")
@@ -564,7 +570,9 @@ class NoiseScheduler:
             raise ValueError(f"method must be 'ddim' or 'ddpm', got {method!r}")
         if steps is None:
             steps = 50 if method == "ddim" else self.num_train_timesteps
-        timesteps = self.set_timesteps(steps)                                    # (S,) descending
+        # full-length DDPM visits every timestep T-1 .. 0 whatever the offset of the spacing
+        full = method == "ddpm" and steps == self.num_train_timesteps
+        timesteps = self.set_timesteps(steps, spacing="trailing" if full else None)  # (S,) desc.
         if (guidance_scale is not None
                 and not bool(torch.isfinite(torch.as_tensor(guidance_scale)).all())):
             raise ValueError(f"guidance_scale must be finite or None, got {guidance_scale}")

@@ -66,7 +66,9 @@ import numpy as np
 from physlab._io import atomic_write_text
 
 from .dataset import (
+    ACTION_PHRASES,
     BANDAI_NAMCO_ATTRIBUTION,
+    action_text,
     JOINT_COMBINATIONS,
     TEST_TAKES,
     TRAJECTORY_JOINT_NAMES,
@@ -86,9 +88,12 @@ __all__ = [
     "clip_metrics",
     "eval_conditions",
     "evaluate",
+    "format_adherence",
     "format_table",
     "held_out_windows",
     "main",
+    "motion_statistics",
+    "text_adherence",
 ]
 
 #: Rows of the table, in order ("single ControlNet" only with a second checkpoint).
@@ -323,6 +328,108 @@ def format_table(rows):
     return "\n".join(lines)
 
 
+# ----------------------------------------------------------------------------- text adherence
+
+#: Bandai-Namco contents of the text-adherence check; the prompt is ``action_text(content)``
+#: (no style adverb, so none of these exact texts was a training text).
+ADHERENCE_CONTENTS = ("walk", "run", "walk-back", "walk-left", "bow", "kick",
+                      "raise-up-both-hands", "wave-right-hand")
+#: Columns of :func:`motion_statistics`.
+STATISTICS = ("forward_m", "left_m", "speed_m_s", "hand_above_head_m")
+
+
+def motion_statistics(joints, fps=20.0):
+    """Simple per-clip numbers an action word predicts, for canonical clips (frame 0 pelvis
+    at the origin facing ``+z``).
+
+    Returns a ``(n, 4)`` float array, columns :data:`STATISTICS`: forward travel of the pelvis
+    (z of the last frame, m), travel to the left (x, m), mean horizontal pelvis speed along
+    its path (m/s), and how far the higher wrist rises above the head at its highest
+    (m; negative = never above the head)."""
+    x = np.asarray(joints, dtype=float)
+    if x.ndim == 3:
+        x = x[None]
+    if x.ndim != 4 or x.shape[2:] != (22, 3):
+        raise ValueError(f"joints must have shape (n, N, 22, 3), got {x.shape}")
+    p = x[:, :, 0]                                                         # (n, N, 3) pelvis
+    d = p[:, -1] - p[:, 0]
+    path = np.linalg.norm(np.diff(p[:, :, [0, 2]], axis=1), axis=-1).sum(1)
+    duration = (x.shape[1] - 1) / float(fps)
+    hand = (x[:, :, [20, 21], 1].max(axis=2) - x[:, :, 15, 1]).max(axis=1)
+    return np.stack([d[:, 2], d[:, 0], path / duration, hand], axis=1)
+
+
+def text_adherence(control, contents=ADHERENCE_CONTENTS, seeds=4, steps=50, guidance=7.5,
+                   progress=True, data_root=None):
+    """Does the text-only generator do what the action word says? (A stand-in for the
+    paper's R-precision, which needs a trained motion-text evaluator that physlab lacks.)
+
+    For each content, ``seeds`` text-only clips of ``action_text(content)`` are compared with
+    the windows of all Bandai-Namco clips of that content (both takes: the reference says what
+    the action looks like; the held-out take lacks some actions) through
+    :func:`motion_statistics`.
+    Recognition: each generated clip is assigned the content whose mean real statistics are
+    nearest (statistics scaled by their spread over the real windows); ``accuracy`` is the
+    fraction assigned to the content asked for (chance ``1 / len(contents)``).
+
+    Returns
+    -------
+    dict: ``per_content`` {content: {"text", "n_real", "real": {stat: mean},
+    "generated": {stat: mean}, "recognised_as": list of contents}}, ``accuracy`` float,
+    ``chance`` float, ``seeds``, ``steps``, ``guidance``.
+    """
+    from tqdm.auto import tqdm
+
+    contents = tuple(contents)
+    unknown = [c for c in contents if c not in ACTION_PHRASES]
+    if not contents or unknown:
+        raise ValueError(f"contents must be a non-empty subset of {sorted(ACTION_PHRASES)}; "
+                         f"unknown: {unknown}")
+    if isinstance(seeds, bool) or not isinstance(seeds, (int, np.integer)) or seeds < 1:
+        raise ValueError(f"seeds must be an integer >= 1, got {seeds!r}")
+    gen = _load(control, "--control")
+    win = make_windows(load_clips(data_root), length=WINDOW_LENGTH, stride=WINDOW_STRIDE)
+    real_stats = motion_statistics(win.joints, fps=win.fps)               # (M, 4)
+    labels = np.asarray(win.content)
+    missing = [c for c in contents if not np.any(labels == c)]
+    if missing:
+        raise ValueError(f"no Bandai-Namco windows of {missing}")
+    means = np.stack([real_stats[labels == c].mean(0) for c in contents])  # (C, 4)
+    scale = real_stats.std(0) + 1e-9
+    per, hits, total = {}, 0, 0
+    for k, c in enumerate(tqdm(contents, desc="text adherence", disable=not progress)):
+        text = action_text(c)
+        clips = np.stack([gen(text, seed=s, steps=steps, guidance_scale=guidance)
+                          for s in range(seeds)])
+        g = motion_statistics(clips)                                       # (S, 4)
+        nearest = np.argmin((((g[:, None] - means[None]) / scale) ** 2).sum(-1), axis=1)
+        rec = [contents[j] for j in nearest]
+        hits += sum(r == c for r in rec)
+        total += len(rec)
+        per[c] = {"text": text, "n_real": int(np.sum(labels == c)),
+                  "real": dict(zip(STATISTICS, means[k].tolist())),
+                  "generated": dict(zip(STATISTICS, g.mean(0).tolist())),
+                  "recognised_as": rec}
+    return {"per_content": per, "accuracy": hits / total, "chance": 1.0 / len(contents),
+            "seeds": int(seeds), "steps": int(steps), "guidance": float(guidance)}
+
+
+def format_adherence(res):
+    """Markdown table of :func:`text_adherence` (real mean / generated mean per statistic)."""
+    head = ["action text", "real windows", "forward (m) real / gen", "left (m) real / gen",
+            "speed (m/s) real / gen", "hand above head (m) real / gen", "recognised"]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for c, r in res["per_content"].items():
+        cells = [f"{r['real'][k]:+.2f} / {r['generated'][k]:+.2f}" for k in STATISTICS]
+        ok = sum(x == c for x in r["recognised_as"])
+        lines.append("| " + " | ".join([r["text"], str(r["n_real"]), *cells,
+                                        f"{ok}/{len(r['recognised_as'])}"]) + " |")
+    lines += ["", f"Text only, {res['seeds']} seeds per text, {res['steps']} DDIM steps, "
+              f"w = {res['guidance']:g}. Recognition accuracy (nearest real action mean): "
+              f"{res['accuracy']:.2f} (chance {res['chance']:.2f})."]
+    return "\n".join(lines)
+
+
 # ----------------------------------------------------------------------------- CLI
 
 
@@ -341,6 +448,10 @@ def _parser():
     p.add_argument("--seed", type=int, default=0, help="conditions and sampling seed")
     p.add_argument("--out", type=Path, default=None, help="folder for table.md and rows.json")
     p.add_argument("--data-root", default=None, help="Bandai-Namco folder (labels.csv)")
+    p.add_argument("--adherence", action="store_true",
+                   help="also run the text-adherence check of the text-only generator")
+    p.add_argument("--adherence-seeds", type=int, default=4,
+                   help="clips per action text in the adherence check (default 4)")
     p.add_argument("--no-progress", action="store_true", help="no progress bars")
     return p
 
@@ -354,11 +465,24 @@ def main(argv=None):
                         windows=args.windows, steps=args.steps, guidance=args.guidance,
                         seed=args.seed, out=args.out, progress=not args.no_progress,
                         data_root=args.data_root)
+        adherence = None
+        if args.adherence:
+            adherence = text_adherence(args.control, seeds=args.adherence_seeds,
+                                       steps=args.steps, guidance=args.guidance,
+                                       progress=not args.no_progress,
+                                       data_root=args.data_root)
     except (FileNotFoundError, ValueError) as e:
         p.error(str(e))                                                    # exit code 2
     print(format_table(rows))
+    if adherence is not None:
+        print()
+        print(format_adherence(adherence))
     if args.out is not None:
         print(f"wrote {args.out / 'table.md'} and {args.out / 'rows.json'}")
+        if adherence is not None:
+            atomic_write_text(args.out / "adherence.md", format_adherence(adherence) + "\n")
+            atomic_write_text(args.out / "adherence.json", json.dumps(adherence, indent=1))
+            print(f"wrote {args.out / 'adherence.md'} and {args.out / 'adherence.json'}")
     return rows
 
 

@@ -212,7 +212,8 @@ class Generator:
     # -- network evaluation
 
     def _eps(self, x, t, a, drop, cond):
-        """ε̂ (B, T, D) of the text model (cond None) or the controlled one."""
+        """Network output (B, T, D) (x̂₀ / ε̂ / v̂, the scheduler's ``prediction_type``) of the
+        text model (cond None) or the controlled one."""
         if cond is None:
             return self.denoiser(x, t, a, drop)
         m = self.model

@@ -18,7 +18,9 @@ Design (and where it departs from the paper)
 * **Denoiser** ``eps_theta(x_t, t, a)``: a pre-LayerNorm transformer encoder over
   ``1 + n_frames`` tokens: one condition token ``time_mlp(sinusoid(t)) + text_proj(a)`` (MLD
   supp.: text embedding added to the time embedding and concatenated with the latent),
-  followed by the motion rows ``motion_in(x_t) + pos``. ε-prediction. Classifier-free
+  followed by the motion rows ``motion_in(x_t) + pos``. The output is what the scheduler's
+  ``prediction_type`` says: x₀ by default, ε as in the paper (see
+  :mod:`physlab.motion.train` for why). Classifier-free
   guidance (Eq. (14)): ``drop_text`` replaces ``a`` by a learned null embedding.
 * **ControlNet residuals** are added to the token stream after every block
   (``h_i <- block_i(h_{i-1}) + r_i``), as MLD/OmniControl-style ControlNets do.
@@ -314,7 +316,8 @@ def _check_inputs(x_t, t, text_emb, cfg, drop_text=None):
 
 
 class MotionDenoiser(nn.Module):
-    """``eps_theta(x_t, t, a)``: text-conditioned ε-prediction transformer over feature rows."""
+    """``eps_theta(x_t, t, a)``: text-conditioned denoising transformer over feature rows
+    (predicts x₀, ε or v, as the checkpoint's scheduler says)."""
 
     def __init__(self, cfg: DenoiserConfig):
         super().__init__()
@@ -335,7 +338,7 @@ class MotionDenoiser(nn.Module):
 
         Returns
         -------
-        (B, T, D) tensor ε̂.
+        (B, T, D) tensor: x̂₀, ε̂ or v̂ (the scheduler's ``prediction_type``).
         """
         _check_inputs(x_t, t, text_emb, self.config, drop_text)
         if residuals is not None and len(residuals) != len(self.encoder.blocks):
@@ -536,7 +539,7 @@ class ControlledDenoiser(nn.Module):
         return self
 
     def forward(self, x_t, t, text_emb, cond, drop_text=None):
-        """ε̂ ``(B, T, D)`` for noisy features ``x_t`` (B, T, D), timesteps ``t`` (B,),
+        """Network output ``(B, T, D)`` (x̂₀ / ε̂ / v̂, as for :class:`MotionDenoiser`) for noisy features ``x_t`` (B, T, D), timesteps ``t`` (B,),
         action embeddings ``text_emb`` (B, text_dim) and a condition dict (see
         :func:`check_condition`)."""
         _check_inputs(x_t, t, text_emb, self.config, drop_text)

@@ -16,6 +16,22 @@ runs at ~400–450 windows/s (~6.5 steps/s: 8000 steps ≈ 21 min) and the contr
 processes was not faster (~380 / ~130 windows/s). There are 1807 training windows (take 001,
 stride 10).
 
+**What the network predicts** (``--prediction``, stored in the checkpoint's scheduler):
+Sketch2Anim (like MLD) trains ε-prediction, L_recon = ‖ε − ε̂‖² (Eq. (5)), and gets x̂₀ for
+L_tr / L_key from Eq. (7). MLD denoises a compact VAE latent; physlab denoises the 137-d
+features directly, and there ε-prediction failed: a default-size model trained 8000 steps
+with ``--prediction epsilon`` ignored the action text (root travel over 2 s: walks 0.37 m,
+bows 0.37 m, walks backwards +0.41 m; real clips: ~+2.6, 0.0, −1.3 m) and produced broken
+bodies (wrists up to 3.5 m above the head), because at the noisy steps that fix the global
+motion, x̂₀ = (x_t − √(1−ᾱ_t) ε̂)/√ᾱ_t amplifies ε errors ~15x (√ᾱ_T ≈ 0.068) and the
+ε-loss weights x₀ errors by the SNR, i.e. almost not at all there. The default is
+therefore MDM's choice (Tevet et al. 2023, Sec. 3): the network predicts x₀ ("sample");
+the loss of Eq. (5) is taken on that output, and x̂₀ of Eq. (7) is the output itself
+(:meth:`~physlab.motion.diffusion.NoiseScheduler.split_output` gives x̂₀ and ε̂ for any
+parametrisation, so sampling, DDIM and classifier-free guidance are unchanged). After 1500
+steps the x₀ model already follows the text (walks +5.0 m, bows −0.3 m, walks backwards
+−2.0 m, with w = 7.5). ``--prediction epsilon`` reproduces the paper's parametrisation.
+
 Every flag is a field of :class:`TrainConfig` or :class:`~physlab.motion.model.DenoiserConfig`
 (``--d-model 128`` …), and :func:`train` takes the same names as keyword arguments.
 
@@ -54,7 +70,7 @@ from .dataset import (
     read_labels,
     split_by_take,
 )
-from .diffusion import NoiseScheduler, SchedulerConfig
+from .diffusion import PREDICTION_TYPES, NoiseScheduler, SchedulerConfig
 from .features import FeatureStats, joints_to_features
 from .model import (
     ControlledDenoiser,
@@ -120,6 +136,8 @@ class TrainConfig:
     min_t_r: int = 5                # shortest trajectory (frames) of a random condition
     single_controlnet: bool = False  # Table 2 ablation: one ControlNet for both conditions
     scheduler: str = "mld"          # noise schedule, a key of SCHEDULERS
+    prediction: str = "sample"      # network output: "sample" (x0, MDM; default) |
+                                    # "epsilon" (Sketch2Anim) | "v_prediction"; module doc
     checkpoint_every: int = 500     # steps between checkpoints (and at the end)
     num_threads: int = 0            # torch threads per process; 0 = cores / processes
     data_root: str = ""             # Bandai-Namco folder; "" = <external data>/mocap/bandai_namco
@@ -136,6 +154,9 @@ class TrainConfig:
         if self.scheduler not in SCHEDULERS:
             raise ValueError(f"scheduler must be one of {sorted(SCHEDULERS)}, got "
                              f"{self.scheduler!r}")
+        if self.prediction not in PREDICTION_TYPES:
+            raise ValueError(f"prediction must be one of {PREDICTION_TYPES}, got "
+                             f"{self.prediction!r}")
         if self.text_encoder not in ("minilm", "hash"):
             raise ValueError(f"text_encoder must be 'minilm' or 'hash', got "
                              f"{self.text_encoder!r}")
@@ -444,7 +465,8 @@ def train(**kwargs):
     else:
         model_cfg = DenoiserConfig(**mk)
         stats, cache = None, None
-        sched = NoiseScheduler(SchedulerConfig(**SCHEDULERS[cfg.scheduler]))
+        sched = NoiseScheduler(SchedulerConfig(**SCHEDULERS[cfg.scheduler],
+                                               prediction_type=cfg.prediction))
     if cfg.text_encoder == "hash" and cache is not None:
         cache.encoder = hash_encoder
     data = prepare_data(cfg, stats=stats, cache=cache)
@@ -518,15 +540,16 @@ def train(**kwargs):
             noise = torch.randn(x0.shape, generator=g)                           # (B, T, D)
             x_t = sched.add_noise(x0, noise, t)
             drop = torch.rand(B, generator=g) < p_drop                           # (B,) CFG
+            target = sched.training_target(x0, noise, t)                         # ε, v or x0
             if cfg.stage == "base":
-                eps = net(x_t, t, a, drop)
-                loss = F.mse_loss(eps, noise)
+                out_ = net(x_t, t, a, drop)
+                loss = F.mse_loss(out_, target)
                 parts = {}
             else:
                 cond = condition_batch(joints_np[idx.numpy()], rng, cfg.min_t_r)
-                eps = net(x_t, t, a, cond, drop)
-                l_rec = F.mse_loss(eps, noise)                                   # Eq. (5)
-                x0_hat = sched.predict_x0(x_t, eps, t)                           # Eq. (7)
+                out_ = net(x_t, t, a, cond, drop)
+                l_rec = F.mse_loss(out_, target)                                 # Eq. (5)
+                x0_hat, _ = sched.split_output(out_, x_t, t)                     # Eq. (7)
                 l_tr, l_key = control_losses(x0_hat, joints_all[idx], cond, mean, std)
                 loss = l_rec + cfg.lambda_tr * l_tr + cfg.lambda_key * l_key     # Eq. (9)
                 parts = {"rec": l_rec.item(), "tr": l_tr.item(), "key": l_key.item()}

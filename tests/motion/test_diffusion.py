@@ -484,3 +484,13 @@ def test_import_physlab_motion_does_not_import_this_module():
             "assert 'torch' not in sys.modules")
     subprocess.run([sys.executable, "-c", code], check=True)
     assert np.isfinite(NoiseScheduler().betas.numpy()).all()
+
+
+def test_full_ddpm_visits_every_timestep_despite_steps_offset():
+    """MLD's schedule has steps_offset=1; a 1000-step DDPM run still goes 999 .. 0."""
+    sch = NoiseScheduler(num_train_timesteps=20, steps_offset=1)
+    seen = []
+    sch.sample(lambda x, t, c: torch.zeros_like(x), (1, 3), method="ddpm",
+               generator=torch.Generator().manual_seed(0),
+               callback=lambda i, t, x, x0: seen.append(t))
+    assert seen == list(range(19, -1, -1))

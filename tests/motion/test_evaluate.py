@@ -162,3 +162,40 @@ def test_single_controlnet_flag_warns_for_a_plain_control_checkpoint(ckpts):
     with pytest.warns(UserWarning, match="single_controlnet"):
         evaluate(ckpts["control"], single_controlnet=ckpts["control"], windows=1, steps=1,
                  progress=False)
+
+
+def test_motion_statistics_analytic():
+    """A body gliding forward at 1 m/s and drifting left, one wrist 0.3 m above the head."""
+    from physlab.motion.evaluate import motion_statistics
+
+    N, fps = 40, 20.0
+    x = np.zeros((N, 22, 3))
+    time_s = np.arange(N) / fps
+    x[:, :, 2] = time_s[:, None] * 1.0                       # forward (+z), whole body
+    x[:, :, 0] = time_s[:, None] * 0.5                       # left (+x)
+    x[:, 15, 1] = 1.6                                        # head
+    x[:, 20, 1] = 1.0
+    x[:, 21, 1] = 1.0
+    x[10, 21, 1] = 1.9                                       # right wrist up once
+    s = motion_statistics(x, fps=fps)[0]
+    np.testing.assert_allclose(s, [1.95, 0.975, np.hypot(1.0, 0.5), 0.3], atol=1e-12)
+    with pytest.raises(ValueError, match="shape"):
+        motion_statistics(np.zeros((40, 21, 3)))
+
+
+def test_text_adherence_structure_and_errors(ckpts, real_data):
+    from physlab.motion.evaluate import format_adherence, text_adherence
+
+    res = text_adherence(ckpts["control"], contents=("walk", "bow"), seeds=2, steps=2,
+                         progress=False)
+    assert set(res["per_content"]) == {"walk", "bow"} and res["chance"] == 0.5
+    assert 0.0 <= res["accuracy"] <= 1.0
+    walk = res["per_content"]["walk"]
+    assert walk["text"] == "a person walks" and walk["n_real"] > 100
+    assert walk["real"]["forward_m"] > 1.0 > abs(res["per_content"]["bow"]["real"]["forward_m"])
+    assert len(walk["recognised_as"]) == 2
+    assert "a person bows" in format_adherence(res)
+    with pytest.raises(ValueError, match="unknown"):
+        text_adherence(ckpts["control"], contents=("fly",), progress=False)
+    with pytest.raises(ValueError, match="seeds"):
+        text_adherence(ckpts["control"], seeds=0, progress=False)
