@@ -89,6 +89,22 @@ def test_control_losses_zero_at_ground_truth_and_analytic_shift():
     assert torch.allclose(l_key, torch.tensor(21 * 0.01, dtype=torch.float64))
 
 
+def test_velocity_loss_ignores_offsets_and_sees_jitter():
+    from physlab.motion.train import velocity_loss
+
+    g = torch.Generator().manual_seed(0)
+    x0 = torch.randn(3, 39, 137, generator=g, dtype=torch.float64)
+    assert velocity_loss(x0, x0) == 0
+    # a per-sequence constant offset has no velocity: no loss
+    assert velocity_loss(x0 + torch.randn(3, 1, 137, generator=g, dtype=torch.float64),
+                         x0) < 1e-24
+    # alternating jitter ±e on every row: every difference is off by ±2e -> loss 4e²
+    e = 0.1
+    sign = (-1.0) ** torch.arange(39, dtype=torch.float64)
+    jitter = x0 + e * sign[None, :, None]
+    assert torch.allclose(velocity_loss(jitter, x0), torch.tensor(4 * e**2, dtype=torch.float64))
+
+
 def test_hash_encoder_is_deterministic_unit():
     e = hash_encoder(["a person walks", "a person runs", "a person walks"])
     assert e.shape == (3, 384) and np.allclose(np.linalg.norm(e, axis=1), 1)
