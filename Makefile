@@ -23,7 +23,7 @@ help:
 	@echo "make test       set up .venv and run the whole suite (unit tests, executed lessons, browser test)"
 	@echo "make reproduce  execute every lesson headless, write figures to reports/"
 	@echo "make bench      run the benchmarks in benchmarks/"
-	@echo "make motion-model  retrain the shipped motion checkpoints in data/motion/ (~70 min, 2 cores)"
+	@echo "make motion-model  retrain the shipped motion checkpoints in data/motion/ (~50 min, 2 cores)"
 
 # (Re)install whenever pyproject.toml changes.
 $(STAMP): pyproject.toml
@@ -67,17 +67,17 @@ bench: $(STAMP)
 
 # Retrains data/motion/*.pt (part 4, Sketch2Anim) from the Bandai-Namco clips in ../shared/data:
 # the text-conditioned base denoiser (4000 steps, ~10 min on 2 cores), then the trajectory
-# ControlNet + keypose adapter on the frozen base (4000 steps, ~28 min) and the single-ControlNet
-# ablation (4000 steps, ~28 min). Resumable: rerun after an interruption. Full-precision
+# ControlNet + keypose adapter on the frozen base (3000 steps, ~20 min) and the single-ControlNet
+# ablation (3000 steps, ~20 min). Resumable: rerun after an interruption. Full-precision
 # checkpoints stay in $(MOTION_RUNS); data/ gets the fp16 inference copies.
 MOTION_RUNS  ?= runs/motion
 MOTION_TRAIN := $(PY) -m physlab.motion.train --num-threads 2 --text-cache $(MOTION_RUNS)/text_cache.npz
 motion-model: $(STAMP)
 	mkdir -p $(MOTION_RUNS) data/motion
 	$(MOTION_TRAIN) --stage base --steps 4000 --out $(MOTION_RUNS)/base.pt
-	$(MOTION_TRAIN) --stage control --steps 4000 --base-ckpt $(MOTION_RUNS)/base.pt \
+	$(MOTION_TRAIN) --stage control --steps 3000 --base-ckpt $(MOTION_RUNS)/base.pt \
 		--out $(MOTION_RUNS)/control.pt --export data/motion/sketch2anim_control.pt
-	$(MOTION_TRAIN) --stage control --single-controlnet --steps 4000 \
+	$(MOTION_TRAIN) --stage control --single-controlnet --steps 3000 \
 		--base-ckpt $(MOTION_RUNS)/base.pt --out $(MOTION_RUNS)/single_controlnet.pt \
 		--export data/motion/sketch2anim_single_controlnet.pt
 

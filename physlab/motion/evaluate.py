@@ -19,9 +19,13 @@ Rows of the table:
 * ``text only`` — the text denoiser of the ``--control`` checkpoint (its frozen base), no
   keypose / trajectories; its keypose and trajectory errors are measured against the same
   conditions (how far an unconditioned motion lands from the target);
-* ``keypose + trajectory`` — the full conditioning (:class:`~physlab.motion.generate.
-  Generator`);
-* ``single ControlNet`` — the Table 2 ablation, only with ``--single-controlnet CKPT``.
+* ``keypose + trajectory`` — the full conditioning by the networks alone (trajectory
+  ControlNet + keypose adapter, :class:`~physlab.motion.generate.Generator` with the
+  inference guidance off);
+* ``keypose + trajectory + guidance`` — the same plus the inference guidance (L-BFGS
+  post-optimisation of the last x̂₀, :data:`GUIDED`; the default of ``generate``);
+* ``single ControlNet`` (and ``+ guidance``) — the Table 2 ablation, only with
+  ``--single-controlnet CKPT``. The paper's ablations run without inference guidance.
 
 Columns (:mod:`physlab.motion.metrics`):
 
@@ -96,8 +100,14 @@ __all__ = [
     "text_adherence",
 ]
 
-#: Rows of the table, in order ("single ControlNet" only with a second checkpoint).
-ROW_NAMES = ("real clips", "text only", "keypose + trajectory", "single ControlNet")
+#: Rows of the table, in order (the "single ControlNet" rows only with a second checkpoint).
+ROW_NAMES = ("real clips", "text only", "keypose + trajectory",
+             "keypose + trajectory + guidance", "single ControlNet",
+             "single ControlNet + guidance")
+#: Generator options of the "+ guidance" rows (post-optimisation of the last x̂₀) and of the
+#: network-only rows.
+GUIDED = {"inference_guidance": 0, "guidance_final": 20}
+UNGUIDED = {"inference_guidance": 0, "guidance_final": 0}
 #: Keys of every row -> column header of the table.
 COLUMNS = {
     "foot_skating": "foot skating ↓",
@@ -240,12 +250,14 @@ def _load(path, flag):
     return gen
 
 
-def _sample(gen, data, conds, controlled, steps, guidance, seed, progress, label):
+def _sample(gen, data, conds, controlled, steps, guidance, seed, progress, label,
+            guided=False):
     from tqdm.auto import tqdm
 
     out, total = [], 0.0
     for i in tqdm(range(len(conds)), desc=label, disable=not progress, leave=False):
-        kw = _generator_kwargs(conds[i]) if controlled else {}
+        kw = ({**_generator_kwargs(conds[i]), **(GUIDED if guided else UNGUIDED)}
+              if controlled else {})
         tic = time.perf_counter()
         out.append(gen(data["text"][i], seed=seed + i, guidance_scale=guidance, steps=steps,
                        **kw))                                              # (40, 22, 3)
@@ -294,8 +306,10 @@ def evaluate(control, single_controlnet=None, windows=64, steps=50, guidance=7.5
     x, s = _sample(gens["keypose + trajectory"], data, conds, False, label="text only", **kw)
     rows["text only"] = clip_metrics(x, conds, s)
     for name, gen in gens.items():
-        x, s = _sample(gen, data, conds, True, label=name, **kw)
-        rows[name] = clip_metrics(x, conds, s)
+        for guided in (False, True):
+            label = name + (" + guidance" if guided else "")
+            x, s = _sample(gen, data, conds, True, label=label, guided=guided, **kw)
+            rows[label] = clip_metrics(x, conds, s)
 
     if out is not None:
         out = Path(out)

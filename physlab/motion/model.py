@@ -27,8 +27,7 @@ Design (and where it departs from the paper)
 * **Trajectory ControlNet** (Eq. (1)): a trainable copy of the denoiser's encoder (input
   layers + blocks, initialised from the base weights) whose motion tokens get
   ``E_tr(T)`` added — ``z'_t = z_t + E_tr(T)`` written in token space (adding a 137-d
-  embedding before the linear ``motion_in`` is the special case ``W E``); ``E_tr`` ends in a
-  zero-initialised layer so the copy starts as an exact copy. Each block output goes through
+  embedding before the linear ``motion_in`` is the special case ``W E``). Each block output goes through
   a zero-initialised linear layer ``Z_i``: residuals ``r_i``.
 * **Keypose adapter** (Eqs. (2)–(4)): another trainable copy whose condition token carries
   the grounded action embedding ``a' = a + E_k(K)`` (Eq. (2), in token space), whose blocks
@@ -356,8 +355,12 @@ class FrameConditionEncoder(nn.Module):
     """Per-frame condition ``(B, N, F)`` -> per-row embedding ``(B, N-1, C)``: a linear
     input layer, ``cond_layers`` transformer blocks over the N frames, then row ``i`` =
     ``Linear([e_i, e_{i+1}])`` (a feature row is built from frames i and i+1). The output
-    layer is zero-initialised, so a fresh ControlNet starts as an exact copy of the encoder.
-    This is ``E_tr`` (Eq. (1)) with ``F = 6*3 + 6`` (positions + mask); a 2D variant would
+    layer has PyTorch's default initialisation, *not* zero: the ControlNet's output layers
+    ``Z_i`` and the adapter's ``Z'_i`` are already zero, so the controlled model starts equal
+    to the base anyway, and a third zero factor on the trajectory path (E_tr -> copy -> Z ->
+    adapter -> Z') left the gradients of the trajectory branch at zero: a control stage trained
+    1500 steps with a zero-initialised E_tr and E_k still ignored the conditions (held-out
+    trajectory error 0.336 m with, 0.336 m without them). This is ``E_tr`` (Eq. (1)) with ``F = 6*3 + 6`` (positions + mask); a 2D variant would
     use ``F = 6*2 + 6``."""
 
     def __init__(self, in_dim, cfg: DenoiserConfig):
@@ -368,7 +371,7 @@ class FrameConditionEncoder(nn.Module):
         self.pos = nn.Parameter(torch.randn(1, cfg.n_joint_frames, C) * 0.02)
         self.blocks = nn.ModuleList([Block(C, cfg.n_heads, cfg.ff, cfg.dropout)
                                      for _ in range(cfg.cond_layers)])
-        self.out = _zero_linear(2 * C, C)
+        self.out = nn.Linear(2 * C, C)
 
     def forward(self, frames):                                             # (B, N, F)
         e = self.inp(frames) + self.pos                                    # (B, N, C)
@@ -391,7 +394,8 @@ class KeyposeEncoder(nn.Module):
     The pose is made pelvis-relative in x and z (the keypose gives no global placement,
     Sec. 4.2; heights kept), each joint is a token (position + learned joint embedding), one
     transformer block mixes them, the tokens are mean-pooled and a learned embedding of the
-    key frame index is added. Zero-initialised output layer."""
+    key frame index is added. Output layer with default initialisation (see
+    :class:`FrameConditionEncoder` for why not zero)."""
 
     def __init__(self, cfg: DenoiserConfig, coord_dim=3):
         super().__init__()
@@ -402,7 +406,7 @@ class KeyposeEncoder(nn.Module):
         self.frame = nn.Embedding(cfg.n_joint_frames, C)
         self.blocks = nn.ModuleList([Block(C, cfg.n_heads, cfg.ff, cfg.dropout)
                                      for _ in range(cfg.cond_layers)])
-        self.out = _zero_linear(C, C)
+        self.out = nn.Linear(C, C)
 
     def forward(self, keypose, key_frame):                                 # (B, J, 3), (B,)
         rel = keypose.clone()
