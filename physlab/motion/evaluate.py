@@ -106,7 +106,7 @@ ROW_NAMES = ("real clips", "text only", "keypose + trajectory",
              "single ControlNet + guidance")
 #: Generator options of the "+ guidance" rows (post-optimisation of the last x̂₀) and of the
 #: network-only rows.
-GUIDED = {"inference_guidance": 0, "guidance_final": 20}
+GUIDED = {"inference_guidance": 0, "guidance_final": 40}
 UNGUIDED = {"inference_guidance": 0, "guidance_final": 0}
 #: Keys of every row -> column header of the table.
 COLUMNS = {

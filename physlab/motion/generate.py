@@ -274,7 +274,7 @@ class Generator:
 
     def __call__(self, action, keypose_3d=None, keypose_at="first", trajectories_3d=None,
                  seed=0, guidance_scale=7.5, steps=50, method="ddim", return_features=False,
-                 progress=False, inference_guidance=0, guidance_final=20,
+                 progress=False, inference_guidance=0, guidance_final=40,
                  guidance_proximity=0.01):
         """Generate one 40-frame motion.
 
@@ -297,10 +297,10 @@ class Generator:
             trajectories are given (Sketch2Anim: 4); default 0, see ``guidance_final``.
         guidance_final : int >= 0, L-BFGS iterations of the guidance at the last step, whose
             x̂₀ is the result: a post-optimisation, as the paper calls its guidance. Measured
-            on 8 held-out windows (control checkpoint after 500 steps): no guidance 0.32 m
-            trajectory error / 0.35 m keypose MPJPE; 20 final iterations 0.067 / 0.038 m
-            (+0.3 s); 4 per step + 20 final 0.066 / 0.034 m (+0.7 s). Default 20; set both to
-            0 for the ControlNet and adapter alone.
+            on 8 held-out windows with the shipped checkpoint: no guidance 0.34 m trajectory
+            error / 0.47 m keypose MPJPE; 20 final iterations 0.047 / 0.031 m; 4 per step +
+            20 final 0.042 / 0.031 m; 40 final 0.018 / 0.018 m. Default 40; set both to 0 for
+            the ControlNet and adapter alone.
         guidance_proximity : float >= 0, weight of the stay-near-x̂₀ term of the guidance.
 
         Returns

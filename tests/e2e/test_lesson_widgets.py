@@ -12,6 +12,8 @@ redrawn (and only there) and that no error shows up anywhere in the notebook:
 * lesson 06: move ``elbow`` then ``shoulder`` in the arm-dragging box; each shown figure must be
   the one ``arm_pose_demo`` draws for the slider readouts (re-rendered here, pixel-compared), whose
   title reports 0 flipped triangles; the limb box must stay untouched.
+* lesson 09: lower the guidance scale ``w`` and pick another action; the motion is re-sampled
+  with the shipped checkpoint and redrawn.
 
 Screenshots of the widget boxes (and the decoded PNGs they displayed) go to pytest's ``tmp_path``;
 their paths are printed (``-s``) and quoted in failure messages.
@@ -587,3 +589,42 @@ def _drive_lesson06(page, lab, shots_dir):
     print(f"[e2e] shoulder {sh_before} -> {sh_after}, elbow {el_before} -> {el_after}: redrawn, "
           f"0 flips, after {time.monotonic() - t0:.1f} s")
     _assert_no_errors(page, f"at the end (widget screenshots in {shots_dir})")
+
+
+LESSON09 = "09_motion_diffusion.ipynb"
+LESSON09_CONTROLS = ["guidance scale w", "action"]
+
+
+@pytest.mark.e2e
+@pytest.mark.timeout(300)
+def test_lesson09_guidance_widget_regenerates_the_motion(lab, tmp_path):
+    _in_browser(lab, tmp_path, _drive_lesson09)
+
+
+def _drive_lesson09(page, lab, shots_dir):
+    """Lesson 09 (shipped motion checkpoint): lower the classifier-free guidance scale w, then
+    ask for another action; each change must sample and draw a new motion."""
+    t0 = time.monotonic()
+    [(cell, box)] = _open_and_run_all(page, lab, LESSON09, 1, t0)
+    assert _labels(box) == LESSON09_CONTROLS, (
+        f"widget controls {_labels(box)}, expected {LESSON09_CONTROLS}")
+    src0, shot0 = _initial_figure(page, cell, box, shots_dir, "1_initial", t0)
+
+    w_slider, w_before = _press_slider(box, "guidance scale w", "ArrowLeft", 5, shot0)
+    src1 = _wait_new_image(page, box, src0, "moving the guidance scale slider")
+    w_after = _readout(w_slider)
+    shot1 = _snapshot(box, shots_dir, "2_w_lowered", src1)
+    assert w_after < w_before, f"w readout went {w_before} -> {w_after}; see {shot1}"
+    assert src1 != src0, f"figure unchanged after moving w; see {shot0} and {shot1}"
+    _check_single_figure(cell, box, shot1)
+
+    action = box.locator(".widget-dropdown").filter(has_text="action").locator("select")
+    assert action.count() == 1, f"no dropdown labelled 'action' in the widget; see {shot1}"
+    action.select_option("a person runs")
+    src2 = _wait_new_image(page, box, src1, "selecting the action 'a person runs'")
+    shot2 = _snapshot(box, shots_dir, "3_runs", src2)
+    assert src2 not in (src0, src1), f"figure unchanged after selecting runs; see {shot2}"
+    _check_single_figure(cell, box, shot2)
+    print(f"[e2e] lesson 09: w {w_before} -> {w_after}, action runs: redrawn after "
+          f"{time.monotonic() - t0:.1f} s")
+    _assert_no_errors(page, f"at the end (widget screenshots: {shot0}, {shot1}, {shot2})")
