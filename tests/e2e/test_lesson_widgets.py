@@ -420,33 +420,43 @@ def test_lesson01_interact_widget_redraws_figure(lab, tmp_path):
     _in_browser(lab, tmp_path, _drive_lesson01)
 
 
+def _slider_then_dropdown(page, cell, box, shots_dir, t0, slider, key, presses, dropdown,
+                          option, names):
+    """Press ``key`` ``presses`` times on the slider labelled ``slider`` (its readout must move
+    that way), then pick ``option`` in the dropdown labelled ``dropdown``; each change must
+    redraw the one figure of ``box``. ``names``: snapshot names (initial, slider, dropdown).
+    Returns the three snapshot paths."""
+    src0, shot0 = _initial_figure(page, cell, box, shots_dir, names[0], t0)
+
+    handle, before = _press_slider(box, slider, key, presses, shot0)
+    src1 = _wait_new_image(page, box, src0, f"moving the {slider!r} slider")
+    after = _readout(handle)
+    shot1 = _snapshot(box, shots_dir, names[1], src1)
+    moved = after > before if key == "ArrowRight" else after < before
+    assert moved, f"{slider!r} readout went {before} -> {after} after {key}; see {shot1}"
+    assert src1 != src0, f"figure unchanged after moving {slider!r}; see {shot0} and {shot1}"
+    _check_single_figure(cell, box, shot1)
+    print(f"[e2e] {slider} {before} -> {after}: figure redrawn after "
+          f"{time.monotonic() - t0:.1f} s")
+
+    select = box.locator(".widget-dropdown").filter(has_text=dropdown).locator("select")
+    assert select.count() == 1, f"no dropdown labelled {dropdown!r} in the widget; see {shot1}"
+    select.select_option(option)
+    src2 = _wait_new_image(page, box, src1, f"selecting {dropdown} {option!r}")
+    shot2 = _snapshot(box, shots_dir, names[2], src2)
+    assert src2 not in (src0, src1), (
+        f"figure unchanged after selecting {option!r}; see {shot1} and {shot2}")
+    _check_single_figure(cell, box, shot2)
+    print(f"[e2e] {dropdown} {option!r}: figure redrawn after {time.monotonic() - t0:.1f} s")
+    return shot0, shot1, shot2
+
+
 def _drive_lesson01(page, lab, shots_dir):
     t0 = time.monotonic()
     [(cell, box)] = _open_and_run_all(page, lab, LESSON01, 1, t0)
-    src0, shot0 = _initial_figure(page, cell, box, shots_dir, "1_initial", t0)
-
-    # 1) The dt slider: nudge its handle with the keyboard.
-    dt_slider, dt_before = _press_slider(box, "dt (s)", "ArrowRight", 3, shot0)
-    src1 = _wait_new_image(page, box, src0, "moving the dt slider")
-    dt_after = _readout(dt_slider)
-    shot1 = _snapshot(box, shots_dir, "2_dt_moved", src1)
-    assert dt_after > dt_before, f"dt readout went {dt_before} -> {dt_after}; see {shot1}"
-    assert src1 != src0, f"figure unchanged after moving dt; see {shot0} and {shot1}"
-    _check_single_figure(cell, box, shot1)
-    print(f"[e2e] dt {dt_before} -> {dt_after}: figure redrawn after {time.monotonic() - t0:.1f} s")
-
-    # 2) The method dropdown.
-    method = box.locator(".widget-dropdown").filter(has_text="method").locator("select")
-    assert method.count() == 1, f"no dropdown labelled 'method' in the widget; see {shot1}"
-    method.select_option("rk4")
-    src2 = _wait_new_image(page, box, src1, "selecting method rk4")
-    shot2 = _snapshot(box, shots_dir, "3_rk4", src2)
-    assert src2 not in (src0, src1), (
-        f"figure unchanged after selecting rk4; see {shot1} and {shot2}")
-    _check_single_figure(cell, box, shot2)
-    print(f"[e2e] method rk4: figure redrawn after {time.monotonic() - t0:.1f} s")
-
-    _assert_no_errors(page, f"at the end (widget screenshots: {shot0}, {shot1}, {shot2})")
+    shots = _slider_then_dropdown(page, cell, box, shots_dir, t0, "dt (s)", "ArrowRight", 3,
+                                  "method", "rk4", ("1_initial", "2_dt_moved", "3_rk4"))
+    _assert_no_errors(page, f"at the end (widget screenshots: {', '.join(map(str, shots))})")
 
 
 LESSON04_ELEMENT_CONTROLS = ["stretch x", "stretch y (< 0 inverts)", "shear", "rotation (°)", "ν"]
@@ -608,23 +618,7 @@ def _drive_lesson09(page, lab, shots_dir):
     [(cell, box)] = _open_and_run_all(page, lab, LESSON09, 1, t0)
     assert _labels(box) == LESSON09_CONTROLS, (
         f"widget controls {_labels(box)}, expected {LESSON09_CONTROLS}")
-    src0, shot0 = _initial_figure(page, cell, box, shots_dir, "1_initial", t0)
-
-    w_slider, w_before = _press_slider(box, "guidance scale w", "ArrowLeft", 5, shot0)
-    src1 = _wait_new_image(page, box, src0, "moving the guidance scale slider")
-    w_after = _readout(w_slider)
-    shot1 = _snapshot(box, shots_dir, "2_w_lowered", src1)
-    assert w_after < w_before, f"w readout went {w_before} -> {w_after}; see {shot1}"
-    assert src1 != src0, f"figure unchanged after moving w; see {shot0} and {shot1}"
-    _check_single_figure(cell, box, shot1)
-
-    action = box.locator(".widget-dropdown").filter(has_text="action").locator("select")
-    assert action.count() == 1, f"no dropdown labelled 'action' in the widget; see {shot1}"
-    action.select_option("a person runs")
-    src2 = _wait_new_image(page, box, src1, "selecting the action 'a person runs'")
-    shot2 = _snapshot(box, shots_dir, "3_runs", src2)
-    assert src2 not in (src0, src1), f"figure unchanged after selecting runs; see {shot2}"
-    _check_single_figure(cell, box, shot2)
-    print(f"[e2e] lesson 09: w {w_before} -> {w_after}, action runs: redrawn after "
-          f"{time.monotonic() - t0:.1f} s")
-    _assert_no_errors(page, f"at the end (widget screenshots: {shot0}, {shot1}, {shot2})")
+    shots = _slider_then_dropdown(page, cell, box, shots_dir, t0, "guidance scale w",
+                                  "ArrowLeft", 5, "action", "a person runs",
+                                  ("1_initial", "2_w_lowered", "3_runs"))
+    _assert_no_errors(page, f"at the end (widget screenshots: {', '.join(map(str, shots))})")
