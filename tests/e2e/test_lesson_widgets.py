@@ -420,6 +420,19 @@ def test_lesson01_interact_widget_redraws_figure(lab, tmp_path):
     _in_browser(lab, tmp_path, _drive_lesson01)
 
 
+def _move_slider(page, cell, box, shots_dir, label, key, presses, old_src, old_shot, name):
+    """Press ``key`` ``presses`` times on the slider ``label``, wait for the redrawn figure,
+    snapshot it as ``name`` and check it is one new figure. Returns ``(src, before, after,
+    shot)`` (readouts before / after)."""
+    handle, before = _press_slider(box, label, key, presses, old_shot)
+    src = _wait_new_image(page, box, old_src, f"moving the {label!r} slider")
+    after = _readout(handle)
+    shot = _snapshot(box, shots_dir, name, src)
+    assert src != old_src, f"figure unchanged after moving {label!r}; see {old_shot} and {shot}"
+    _check_single_figure(cell, box, shot)
+    return src, before, after, shot
+
+
 def _slider_then_dropdown(page, cell, box, shots_dir, t0, slider, key, presses, dropdown,
                           option, names):
     """Press ``key`` ``presses`` times on the slider labelled ``slider`` (its readout must move
@@ -428,14 +441,10 @@ def _slider_then_dropdown(page, cell, box, shots_dir, t0, slider, key, presses, 
     Returns the three snapshot paths."""
     src0, shot0 = _initial_figure(page, cell, box, shots_dir, names[0], t0)
 
-    handle, before = _press_slider(box, slider, key, presses, shot0)
-    src1 = _wait_new_image(page, box, src0, f"moving the {slider!r} slider")
-    after = _readout(handle)
-    shot1 = _snapshot(box, shots_dir, names[1], src1)
+    src1, before, after, shot1 = _move_slider(page, cell, box, shots_dir, slider, key, presses,
+                                              src0, shot0, names[1])
     moved = after > before if key == "ArrowRight" else after < before
     assert moved, f"{slider!r} readout went {before} -> {after} after {key}; see {shot1}"
-    assert src1 != src0, f"figure unchanged after moving {slider!r}; see {shot0} and {shot1}"
-    _check_single_figure(cell, box, shot1)
     print(f"[e2e] {slider} {before} -> {after}: figure redrawn after "
           f"{time.monotonic() - t0:.1f} s")
 
@@ -574,25 +583,20 @@ def _drive_lesson06(page, lab, shots_dir):
     _assert_shows_arm_pose(arm0, shot0, shoulder_deg=-60.0, elbow_deg=-60.0)
 
     # 1) Bend the elbow further: 8 steps of 5° to the left (each press is one committed solve).
-    elbow, el_before = _press_slider(arm_box, "elbow (°)", "ArrowLeft", 8, shot0)
-    arm1 = _wait_new_image(page, arm_box, arm0, "moving the 'elbow (°)' slider")
-    el_after = _readout(elbow)
-    shot1 = _snapshot(arm_box, shots_dir, "3_arm_elbow", arm1)
+    arm1, el_before, el_after, shot1 = _move_slider(page, arm_cell, arm_box, shots_dir,
+                                                    "elbow (°)", "ArrowLeft", 8, arm0, shot0,
+                                                    "3_arm_elbow")
     assert el_after == el_before - 40.0, (
         f"elbow readout went {el_before} -> {el_after}; see {shot1}")
-    assert arm1 != arm0, f"arm figure unchanged after moving the elbow; see {shot0} and {shot1}"
-    _check_single_figure(arm_cell, arm_box, shot1)
     _assert_shows_arm_pose(arm1, shot1, shoulder_deg=-60.0, elbow_deg=el_after)
 
     # 2) Raise the shoulder: 12 steps of 5° to the left (arm above the head).
-    shoulder, sh_before = _press_slider(arm_box, "shoulder (°)", "ArrowLeft", 12, shot1)
-    arm2 = _wait_new_image(page, arm_box, arm1, "moving the 'shoulder (°)' slider")
-    sh_after = _readout(shoulder)
-    shot2 = _snapshot(arm_box, shots_dir, "4_arm_shoulder", arm2)
+    arm2, sh_before, sh_after, shot2 = _move_slider(page, arm_cell, arm_box, shots_dir,
+                                                    "shoulder (°)", "ArrowLeft", 12, arm1, shot1,
+                                                    "4_arm_shoulder")
     assert sh_after == sh_before - 60.0, (
         f"shoulder readout went {sh_before} -> {sh_after}; see {shot2}")
-    assert arm2 not in (arm0, arm1), f"arm figure unchanged after moving the shoulder; see {shot2}"
-    _check_single_figure(arm_cell, arm_box, shot2)
+    assert arm2 != arm0, f"arm figure back to the first one after moving the shoulder; see {shot2}"
     _assert_shows_arm_pose(arm2, shot2, shoulder_deg=sh_after, elbow_deg=el_after)
     assert _img_src(limb_box) == limb0, (
         f"moving the arm sliders redrew the limb widget; see {limb_shot0}")
