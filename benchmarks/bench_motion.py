@@ -19,7 +19,7 @@ What is measured
 2. **Sampling**: one 40-frame clip with classifier-free guidance (w = 7.5, two network
    passes per step, batched) and 50 DDIM steps on ``--sample-threads`` threads (1: with a
    batch of 2 the second thread costs more than it gives), text only and with keypose + trajectories
-   (:class:`physlab.motion.generate.Generator`), median of ``--repeats`` runs.
+   (:class:`physlab.motion.sampling.Generator`), median of ``--repeats`` runs.
    Reference, measured in the same run: the same clip with the DDPM sampler over all training
    timesteps (999 with the MLD scheduler's ``steps_offset = 1``).
    The paper reports 0.5 s per clip on an RTX 4090, guidance included (printed for
@@ -66,7 +66,7 @@ def main(argv=None):
     import torch
 
     from physlab.datasets import external_data_dir
-    from physlab.motion.generate import Generator
+    from physlab.motion.sampling import Generator
     from physlab.motion.train import train
 
     if external_data_dir() is None:

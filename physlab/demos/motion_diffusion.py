@@ -15,8 +15,8 @@ frames (2 s at 20 fps) and ``39`` feature rows of ``D = 137`` numbers. Features 
 :class:`~physlab.motion.features.FeatureStats`: the space the diffusion runs in.
 
 Checkpoints: every function that samples takes ``checkpoint`` (a path; None =
-:data:`~physlab.motion.generate.DEFAULT_CHECKPOINT`) and loads it once per process through
-:func:`~physlab.motion.generate.load_generator`. Sampling runs on one torch thread
+:data:`~physlab.motion.sampling.DEFAULT_CHECKPOINT`) and loads it once per process through
+:func:`~physlab.motion.sampling.load_generator`. Sampling runs on one torch thread
 (:func:`one_thread`): for a batch of 2 rows the thread pool costs more than it gains.
 """
 from __future__ import annotations
@@ -146,9 +146,9 @@ def _unknown(gen, texts):
 
 
 def generator(checkpoint=None):
-    """The :class:`~physlab.motion.generate.Generator` of ``checkpoint`` (None =
+    """The :class:`~physlab.motion.sampling.Generator` of ``checkpoint`` (None =
     ``DEFAULT_CHECKPOINT``), loaded once per file and process."""
-    from physlab.motion.generate import load_generator
+    from physlab.motion.sampling import load_generator
 
     return load_generator(checkpoint)
 

@@ -14,7 +14,10 @@ motion generator.
 * :mod:`.text` — the offline action-word encoder (all-MiniLM-L6-v2, CLIP's stand-in) and
   its embedding cache (loads sentence-transformers only when encoding);
 * :mod:`.diffusion` — the noise scheduler (DDPM / DDIM, classifier-free guidance); imports
-  torch, so it is not imported here.
+  torch, so it is not imported here;
+* :mod:`.sampling` — :func:`generate` and :class:`Generator` (trained checkpoint -> motion);
+  ``from physlab.motion import generate`` gives the *function* (DESIGN.md), loaded on first
+  use so that importing this package never imports torch.
 
 Importing this package is cheap and never imports torch: modules that need torch import it
 themselves and are not imported here.
@@ -39,4 +42,20 @@ __all__ = [
     "TRAJECTORY_JOINTS", "TRAJECTORY_JOINT_NAMES", "MotionClip", "Windows", "Condition",
     "load_clips", "action_text", "make_windows", "condition_from_window", "split_by_take",
     "metrics", "text", "joints_to_bvh",
+    "generate", "Generator", "load_generator", "build_condition", "DEFAULT_CHECKPOINT",
 ]
+
+#: Names served lazily from :mod:`.sampling` (its import chain needs torch only when a
+#: model is built, but keeping it out of ``import physlab.motion`` keeps that import cheap).
+_SAMPLING = ("generate", "Generator", "load_generator", "build_condition", "DEFAULT_CHECKPOINT")
+
+
+def __getattr__(name):
+    if name in _SAMPLING:
+        from . import sampling
+        return getattr(sampling, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_SAMPLING))

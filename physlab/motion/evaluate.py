@@ -20,7 +20,7 @@ Rows of the table:
   keypose / trajectories; its keypose and trajectory errors are measured against the same
   conditions (how far an unconditioned motion lands from the target);
 * ``keypose + trajectory`` — the full conditioning by the networks alone (trajectory
-  ControlNet + keypose adapter, :class:`~physlab.motion.generate.Generator` with the
+  ControlNet + keypose adapter, :class:`~physlab.motion.sampling.Generator` with the
   inference guidance off);
 * ``keypose + trajectory + guidance`` — the same plus the inference guidance (L-BFGS
   post-optimisation of the last x̂₀, :data:`GUIDED`; the default of ``generate``);
@@ -38,7 +38,7 @@ Columns (:mod:`physlab.motion.metrics`):
   :data:`~physlab.motion.metrics.HUMANML3D_GT_PEAK_JERK`, per-frame units, as published).
   Sketch2Anim evaluates them on the 20 blended frames; here on whole 40-frame clips, so
   compare rows with the ``real clips`` row, not with the paper;
-* seconds per clip: wall time of one :class:`~physlab.motion.generate.Generator` call
+* seconds per clip: wall time of one :class:`~physlab.motion.sampling.Generator` call
   (``steps`` DDIM steps, CFG as a batch of 2); 0 for the real clips.
 
 FID, R-precision and MM Dist need a trained motion/text feature extractor (TMR / the
@@ -226,7 +226,7 @@ def _check_windows(windows):
 
 
 def _load(path, flag):
-    from .generate import Generator
+    from .sampling import Generator
 
     if path is None or not Path(path).is_file():
         raise FileNotFoundError(

@@ -275,7 +275,7 @@ def test_inference_guidance_cuts_the_control_errors(control):
 
 
 def test_condition_kwargs_round_trip(control):
-    from physlab.motion.generate import build_condition
+    from physlab.motion.sampling import build_condition
 
     for c in control["conds"]:
         kw = demo.condition_kwargs(c)

@@ -21,7 +21,7 @@ from physlab.motion.evaluate import (
     held_out_windows,
     main,
 )
-from physlab.motion.generate import build_condition
+from physlab.motion.sampling import build_condition
 from physlab.motion.train import train
 
 torch.set_num_threads(1)

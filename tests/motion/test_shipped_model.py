@@ -13,7 +13,7 @@ import torch
 
 from physlab.motion.evaluate import _generator_kwargs, clip_metrics, eval_conditions, \
     held_out_windows
-from physlab.motion.generate import DEFAULT_CHECKPOINT, Generator
+from physlab.motion.sampling import DEFAULT_CHECKPOINT, Generator
 from physlab.motion.dataset import load_clips, make_windows, split_by_take
 
 DATA = Path(DEFAULT_CHECKPOINT).parent

@@ -3,7 +3,7 @@ keypose + optional joint trajectories -> a 40-frame motion ``(40, 22, 3)`` in me
 
 Usage::
 
-    from physlab.motion.generate import Generator, generate
+    from physlab.motion.sampling import Generator, generate
     gen = Generator.from_checkpoint("runs/control.pt")
     joints = gen("a person walks", keypose_3d=K, keypose_at="first",
                  trajectories_3d={"pelvis": P}, seed=0)                 # (40, 22, 3)
@@ -427,7 +427,7 @@ def load_generator(checkpoint=None):
 def generate(action, keypose_3d=None, keypose_at="first", trajectories_3d=None, seed=0,
              guidance_scale=7.5, steps=50, checkpoint=None, **options):
     """``(40, 22, 3)`` joints (m) for an action text and optional keypose / trajectories
-    (DESIGN.md's ``physlab.motion.generate``); ``checkpoint`` defaults to
+    (DESIGN.md's ``from physlab.motion import generate``); ``checkpoint`` defaults to
     :data:`DEFAULT_CHECKPOINT`, loaded once and cached. ``options``: ``method``,
     ``return_features``, ``progress`` of :meth:`Generator.__call__`."""
     gen = load_generator(checkpoint)

@@ -1,13 +1,13 @@
-"""Tests of physlab.motion.generate: sampling from smoke checkpoints of both training stages
+"""Tests of physlab.motion.sampling: sampling from smoke checkpoints of both training stages
 (text only, + keypose, + trajectories, all: Sketch2Anim Fig. 13), determinism, CFG, input
 validation and checkpoint errors."""
 import numpy as np
 import pytest
 import torch
 
-from physlab.motion import generate as G
+from physlab.motion import sampling as G
 from physlab.motion.dataset import TRAJECTORY_JOINT_NAMES
-from physlab.motion.generate import Generator, build_condition, generate, load_generator
+from physlab.motion.sampling import Generator, build_condition, generate, load_generator
 from physlab.motion.train import train
 
 torch.set_num_threads(1)
@@ -207,3 +207,14 @@ def test_generate_function_default_and_cache(ckpts, text, tmp_path, monkeypatch)
     j = generate(text, keypose_3d=_window()[0], steps=STEPS, checkpoint=ckpts["control"])
     assert np.array_equal(j, load_generator(ckpts["control"])(text, keypose_3d=_window()[0],
                                                              steps=STEPS))
+
+
+def test_generate_is_the_function_of_design_md_and_import_stays_torch_free():
+    import subprocess
+    import sys
+    code = ("import sys, physlab.motion as m; assert 'torch' not in sys.modules; "
+            "from physlab.motion import generate, Generator; import inspect; "
+            "assert inspect.isfunction(generate) and generate is m.sampling.generate; "
+            "assert 'keypose_3d' in inspect.signature(generate).parameters; print('ok')")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert out.returncode == 0 and out.stdout.strip() == "ok", out.stderr
