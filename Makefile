@@ -16,7 +16,7 @@ BIN   := $(VENV)/bin
 PY    := $(BIN)/python
 STAMP := $(VENV)/.physlab-installed
 
-.PHONY: help venv lab test test-unit test-lessons test-e2e browser reproduce bench motion-model clean distclean
+.PHONY: help venv lab test test-unit test-lessons test-e2e browser reproduce bench motion-model lesson-data clean distclean
 
 help:
 	@echo "make lab        set up .venv and open JupyterLab on lessons/"
@@ -50,14 +50,25 @@ lab: $(STAMP)
 test-unit: $(STAMP)
 	$(PY) -m pytest tests -m "not e2e" $(PYTEST_ARGS)
 
+# The lessons run against an empty external-data folder: they must work on a clone without
+# ../shared/data (lesson 09 uses the windows shipped in data/motion/).
 test-lessons: $(STAMP)
-	$(PY) -m pytest --nbval-lax --nbval-current-env --nbval-cell-timeout=300 lessons $(PYTEST_ARGS)
+	@empty=$$(mktemp -d); \
+	PHYSLAB_EXTERNAL_DATA=$$empty $(PY) -m pytest --nbval-lax --nbval-current-env \
+		--nbval-cell-timeout=300 lessons $(PYTEST_ARGS); rc=$$?; rm -rf "$$empty"; exit $$rc
 
 test-e2e: $(STAMP) browser
 	$(PY) -m pytest tests -m e2e $(PYTEST_ARGS)
 
-# pytest exits 5 when it collects nothing; make treats any non-zero exit as failure.
-test: test-unit test-lessons test-e2e
+# All three stages run even when one fails, so a flaky lesson cannot hide a broken browser
+# test; the last line names every failed stage. (pytest exits 5 when it collects nothing.)
+test: $(STAMP) browser
+	@failed=""; \
+	$(MAKE) --no-print-directory test-unit    || failed="$$failed unit"; \
+	$(MAKE) --no-print-directory test-lessons || failed="$$failed lessons"; \
+	$(MAKE) --no-print-directory test-e2e     || failed="$$failed browser"; \
+	if [ -n "$$failed" ]; then echo "make test: FAILED stage(s):$$failed"; exit 1; fi; \
+	echo "make test: unit tests, lessons and browser tests all passed"
 
 reproduce: $(STAMP)
 	$(PY) -m physlab.cli reproduce --out reports
@@ -80,6 +91,11 @@ motion-model: $(STAMP)
 	$(MOTION_TRAIN) --stage control --single-controlnet --steps 3000 \
 		--base-ckpt $(MOTION_RUNS)/base.pt --out $(MOTION_RUNS)/single_controlnet.pt \
 		--export data/motion/sketch2anim_single_controlnet.pt
+
+# Rebuilds data/motion/lesson_windows.npz (the real windows lesson 09 shows, so that it runs
+# without ../shared/data) from the Bandai-Namco clips.
+lesson-data: $(STAMP)
+	$(PY) -c "from physlab.demos.motion_diffusion import write_lesson_windows as w; print(w())"
 
 clean:
 	rm -rf reports .pytest_cache

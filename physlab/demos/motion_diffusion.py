@@ -22,8 +22,10 @@ Checkpoints: every function that samples takes ``checkpoint`` (a path; None =
 from __future__ import annotations
 
 import contextlib
+import functools
 import time
 import warnings
+from pathlib import Path
 
 import numpy as np
 
@@ -78,6 +80,9 @@ __all__ = [
     "strobe_image",
     "walk_figure",
     "walk_window",
+    "lesson_windows",
+    "write_lesson_windows",
+    "LESSON_WINDOWS",
 ]
 
 #: Frame rate of every clip here (Hz), HumanML3D's and Sketch2Anim's.
@@ -86,6 +91,13 @@ FPS = 20.0
 FIG_DPI = 80
 #: The Bandai-Namco walk of Secs. 2–3 ("a person walks", style normal, take 001).
 WALK_CLIP = "dataset-1_walk_normal_001"
+#: First frame of the walk window of Secs. 2–3.
+LESSON_WALK_START = 20
+#: Held-out windows of Sec. 6 (the control comparison).
+LESSON_HELD_OUT = 6
+#: The real windows the lesson uses, shipped so that it runs without ../shared/data
+#: (derived from Bandai-Namco, CC BY-NC 4.0: data/motion/README.md); see :func:`lesson_windows`.
+LESSON_WINDOWS = Path(__file__).resolve().parents[2] / "data" / "motion" / "lesson_windows.npz"
 #: Noise levels t (0-based, of T = 1000) at which the walk is shown dissolving.
 NOISE_LEVELS = (0, 100, 250, 500, 750, 999)
 #: Samplers of Sec. 4: label -> (method, steps) of :meth:`Generator.__call__` (a full-length
@@ -196,7 +208,60 @@ def _show(ax, img, title=None, fontsize=8):
 
 
 # ---------------------------------------------------------------------------- Sec. 2: data
-def walk_window(clip_id=WALK_CLIP, start=20, data_root=None):
+def _bandai_dir(data_root, what):
+    """``data_root`` or the external Bandai-Namco folder; FileNotFoundError saying that only the
+    shipped windows (:data:`LESSON_WINDOWS`) work without it."""
+    from physlab.motion.dataset import bandai_namco_dir
+
+    try:
+        return bandai_namco_dir(data_root)
+    except FileNotFoundError as e:
+        raise FileNotFoundError(f"{what} needs the Bandai-Namco clips ({e}); without "
+                                f"../shared/data the lesson uses the windows shipped in "
+                                f"{LESSON_WINDOWS.name} (the default arguments)") from None
+
+
+@functools.lru_cache(maxsize=1)
+def lesson_windows():
+    """The real windows lesson 09 needs, shipped in :data:`LESSON_WINDOWS` so that the lesson
+    runs without ``../shared/data`` (Bandai-Namco, CC BY-NC 4.0; see ``data/motion/README.md``).
+
+    Returns
+    -------
+    dict: ``walk`` (40, 22, 3) the window of :data:`WALK_CLIP` at frame 20 and ``walk_text``;
+    ``real_walk`` / ``real_run`` (n, 40, 22, 3) the stride-10 windows of the normal-style
+    take-001 walk and run (:func:`real_windows`); ``held_out`` (6, 40, 22, 3) with
+    ``held_out_text`` / ``held_out_clip_id`` (6,) str, the windows of
+    :func:`physlab.motion.evaluate.held_out_windows` ``(6)``. Arrays are float64, metres,
+    canonical window frame. Rebuild with :func:`write_lesson_windows`.
+    """
+    if not LESSON_WINDOWS.is_file():
+        raise FileNotFoundError(f"{LESSON_WINDOWS} is missing; it ships with physlab (restore "
+                                f"it with git, or rebuild it with `make lesson-data`)")
+    with np.load(LESSON_WINDOWS, allow_pickle=False) as z:
+        return {k: z[k] for k in z.files}
+
+
+def write_lesson_windows(path=None, data_root=None):
+    """Cut the windows of :func:`lesson_windows` from the Bandai-Namco clips and write them
+    (atomically, ``np.savez_compressed``, no pickles) to ``path`` (default
+    :data:`LESSON_WINDOWS`). Returns the Path."""
+    from physlab._io import atomic_write
+    from physlab.motion.evaluate import held_out_windows
+
+    root = _bandai_dir(data_root, "write_lesson_windows")
+    walk, text = walk_window(WALK_CLIP, start=LESSON_WALK_START, data_root=root)
+    real = real_windows({"walk": "walk", "run": "run"}, data_root=root)
+    held = held_out_windows(LESSON_HELD_OUT, data_root=root)
+    arrays = {"walk": walk, "walk_text": np.array(text), "real_walk": real["walk"],
+              "real_run": real["run"], "held_out": held["joints"],
+              "held_out_text": np.array(held["text"]),
+              "held_out_clip_id": np.array(held["clip_id"])}
+    return atomic_write(path or LESSON_WINDOWS,
+                        lambda tmp: np.savez_compressed(tmp, **arrays), suffix=".npz")
+
+
+def walk_window(clip_id=WALK_CLIP, start=LESSON_WALK_START, data_root=None):
     """One real 40-frame window, canonicalised as in training
     (:func:`~physlab.motion.dataset.make_windows`).
 
@@ -204,15 +269,24 @@ def walk_window(clip_id=WALK_CLIP, start=20, data_root=None):
     ----------
     clip_id : a Bandai-Namco clip id (BVH stem).
     start : int >= 0, first frame of the window in the clip (20 fps).
-    data_root : None or the Bandai-Namco folder.
+    data_root : None or the Bandai-Namco folder. With None, the default window comes from
+        :func:`lesson_windows` (no external data needed); other windows read the clips.
 
     Returns
     -------
     (joints (40, 22, 3) float array in metres, text str).
     """
-    clips = load_clips(data_root, clip_ids=[clip_id])
+    bad = isinstance(start, bool) or not np.isfinite(start) or not float(start).is_integer()
+    if bad or start < 0:
+        raise ValueError(f"start must be an integer frame >= 0 (the first frame of the "
+                         f"40-frame window), got {start!r}")
+    if data_root is None and clip_id == WALK_CLIP and start == LESSON_WALK_START:
+        w = lesson_windows()
+        return w["walk"].copy(), str(w["walk_text"])
+    clips = load_clips(_bandai_dir(data_root, f"walk_window({clip_id!r}, start={start!r})"),
+                       clip_ids=[clip_id])
     n = clips[0].n_frames
-    if isinstance(start, bool) or not float(start).is_integer() or not 0 <= start <= n - 40:
+    if not start <= n - 40:
         raise ValueError(f"start must be an integer frame in 0..{n - 40} (clip {clip_id} has "
                          f"{n} frames, a window 40), got {start!r}")
     w = make_windows(clips, length=40, stride=1)
@@ -227,6 +301,8 @@ def real_windows(actions, style="normal", take="001", data_root=None):
     ----------
     actions : dict text -> Bandai-Namco content label, e.g. ``{"a person walks": "walk"}``.
     style, take : str, which clips of each content (default: the normal-style training take).
+    data_root : None or the Bandai-Namco folder. With None, the normal-style take-001 walk
+        and run come from :func:`lesson_windows`; anything else reads the clips.
 
     Returns
     -------
@@ -234,7 +310,14 @@ def real_windows(actions, style="normal", take="001", data_root=None):
     """
     from physlab.motion.dataset import read_labels
 
-    rows = read_labels(data_root)
+    shipped = {"walk", "run"}
+    if data_root is None and style == "normal" and take == "001" \
+            and set(actions.values()) <= shipped:
+        w = lesson_windows()
+        return {text: w[f"real_{content}"].copy() for text, content in actions.items()}
+    root = _bandai_dir(data_root, f"real_windows({sorted(set(actions.values()))}, "
+                                  f"style={style!r}, take={take!r})")
+    rows = read_labels(root)
     out = {}
     for text, content in actions.items():
         ids = [r["file"].rsplit("/", 1)[-1][:-4] for r in rows if r["content"] == content
@@ -242,7 +325,7 @@ def real_windows(actions, style="normal", take="001", data_root=None):
         if not ids:
             raise ValueError(f"no Bandai-Namco clip has content {content!r}, style {style!r}, "
                              f"take {take!r}")
-        out[text] = make_windows(load_clips(data_root, clip_ids=ids)).joints
+        out[text] = make_windows(load_clips(root, clip_ids=ids)).joints
     return out
 
 
@@ -620,10 +703,30 @@ def embedding_neighbourhood(queries=UNSEEN_ACTIONS, vocabulary=None, extra=None,
             "X": X, "S": S, "neighbours": nbrs}
 
 
+def _labels_without_overlap(ax, points, labels, colours, fontsize=6.5, pad=1.0, avoid=()):
+    """Annotate ``points`` (n, 2) with ``labels`` in the given order of priority, skipping
+    any label whose box would overlap an already placed label, a box of ``avoid`` (display
+    coordinates) or leave the axes. Returns the number of labels placed."""
+    ax_box = ax.get_window_extent()
+    placed = list(avoid)
+    for (px, py), text, c in zip(points, labels, colours):
+        ann = ax.annotate(text, (px, py), fontsize=fontsize, color=c, xytext=(3, 2),
+                          textcoords="offset points")
+        box = ann.get_window_extent().expanded(pad, pad)
+        inside = ax_box.x0 <= box.x0 and box.x1 <= ax_box.x1 and ax_box.y0 <= box.y0 \
+            and box.y1 <= ax_box.y1
+        if not inside or any(box.overlaps(b) for b in placed):
+            ann.remove()
+        else:
+            placed.append(box)
+    return len(placed) - len(avoid)
+
+
 def embedding_figure(nb, label_every=1):
     """Left: each query's nearest training texts (cosine bars); right: all texts projected
     on the two first principal components of their embeddings (training texts blue,
-    queries red, other unseen texts orange)."""
+    queries red, other unseen texts orange), labelled where labels do not overlap (queries
+    and their neighbours first)."""
     q = len(nb["queries"])
     fig, (ax, ax2) = _figure(2, 4.5, 3.4, width_ratios=(0.8, 1.2))
     colors = ("tab:red", "tab:purple", "tab:brown", "tab:pink")
@@ -654,16 +757,23 @@ def embedding_figure(nb, label_every=1):
               (slice(nv + nq, None), "tab:orange", "other unseen texts"),
               (slice(nv, nv + nq), "tab:red", "queries"))
     texts = nb["vocabulary"] + nb["queries"] + nb["extra"]
+    colour = np.empty(len(texts), dtype=object)
     for sl, c, lab in groups:
         ax2.scatter(*P[sl].T, s=14 if c != "tab:red" else 30, color=c, label=lab, zorder=3)
-        for (px, py), t in list(zip(P[sl], texts[sl]))[::label_every]:
-            ax2.annotate(_short(t), (px, py), fontsize=5.5, color=c, xytext=(2, 2),
-                         textcoords="offset points")
+        colour[sl] = c
+    # Label what the left panel talks about first (queries, then their neighbours), then the
+    # rest while there is room: a label that would overlap a placed one is left out.
     ax2.set_xlabel(f"PC 1 ({100 * var[0]:.0f} % of variance)")
     ax2.set_ylabel(f"PC 2 ({100 * var[1]:.0f} %)")
-    ax2.legend(fontsize=6.5, loc="best")
+    legend = ax2.legend(fontsize=6.5, loc="best")
     ax2.set_title("action-text embeddings, 2-D PCA", fontsize=8)
     ax2.grid(alpha=0.3)
+    near = {t for q in nb["queries"] for t, _ in nb["neighbours"][q]}
+    order = sorted(range(len(texts))[::label_every],
+                   key=lambda i: (texts[i] not in nb["queries"], texts[i] not in near, i))
+    fig.draw_without_rendering()                          # fix the layout, then place labels
+    _labels_without_overlap(ax2, P[order], [_short(texts[i]) for i in order], colour[order],
+                            avoid=[legend.get_window_extent()])
     return fig
 
 
@@ -687,13 +797,30 @@ CONTROL_ROWS = {
 }
 
 
+def _held_out(windows, data_root, held_out_windows):
+    """``windows`` held-out windows: evenly spaced ones of the shipped :func:`lesson_windows`
+    when ``data_root`` is None and ``windows`` <= :data:`LESSON_HELD_OUT`, else
+    :func:`~physlab.motion.evaluate.held_out_windows` on the clips."""
+    if isinstance(windows, bool) or not float(windows).is_integer() or windows < 1:
+        raise ValueError(f"windows must be an integer >= 1, got {windows!r}")
+    n = int(windows)
+    if data_root is None and n <= LESSON_HELD_OUT:
+        w = lesson_windows()
+        idx = np.round(np.linspace(0, len(w["held_out"]) - 1, n)).astype(int)
+        return {"joints": w["held_out"][idx], "text": [str(t) for t in w["held_out_text"][idx]],
+                "clip_id": [str(c) for c in w["held_out_clip_id"][idx]]}
+    return held_out_windows(n, data_root=_bandai_dir(
+        data_root, f"control_comparison(windows={n}) (more than the {LESSON_HELD_OUT} shipped)"))
+
+
 def control_comparison(windows=6, seed=0, steps=50, guidance_scale=7.5, checkpoint=None,
                        data_root=None):
     """Text only vs. keypose + trajectories on held-out windows.
 
-    ``windows`` held-out take-002 windows (:func:`~physlab.motion.evaluate.held_out_windows`)
-    with one Sketch2Anim "Cross" condition each (:func:`~physlab.motion.evaluate.
-    eval_conditions`: keypose first / last, random ``t_r`` and joint subset). Window ``i`` is
+    ``windows`` held-out take-002 windows (:func:`~physlab.motion.evaluate.held_out_windows`;
+    up to :data:`LESSON_HELD_OUT` of them are shipped, see :func:`_held_out`) with one
+    Sketch2Anim "Cross" condition each (:func:`~physlab.motion.evaluate.eval_conditions`:
+    keypose first / last, random ``t_r`` and joint subset). Window ``i`` is
     generated from its text with seed ``seed + i`` (the same x_T) three times:
 
     * ``text_only`` — the frozen text model, no keypose / trajectories;
@@ -725,7 +852,7 @@ def control_comparison(windows=6, seed=0, steps=50, guidance_scale=7.5, checkpoi
     if not gen.has_control:
         raise ValueError(f"{gen.path} is a '{gen.stage}' checkpoint; keypose / trajectory "
                          f"control needs a control checkpoint (train --stage control)")
-    data = held_out_windows(int(windows), data_root=data_root)
+    data = _held_out(windows, data_root, held_out_windows)
     conds = eval_conditions(data["joints"], seed=seed)
     out = {"real": data["joints"], "conds": conds, "text": data["text"],
            "clip_id": data["clip_id"]}

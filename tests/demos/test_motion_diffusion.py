@@ -327,3 +327,39 @@ def test_one_thread_restores_the_setting():
     with demo.one_thread():
         assert torch.get_num_threads() == 1
     assert torch.get_num_threads() == before
+
+
+# ------------------------------------------------------ shipped windows (no ../shared/data)
+def test_shipped_lesson_windows_are_the_windows_of_the_clips(real_data, tmp_path):
+    """data/motion/lesson_windows.npz is what write_lesson_windows cuts from the clips."""
+    path = demo.write_lesson_windows(tmp_path / "w.npz")
+    with np.load(path, allow_pickle=False) as fresh:
+        shipped = demo.lesson_windows()
+        assert sorted(fresh.files) == sorted(shipped)
+        for k in fresh.files:
+            assert np.array_equal(fresh[k], shipped[k]), k
+    x, text = demo.walk_window(data_root=real_data / "mocap" / "bandai_namco")
+    assert np.array_equal(x, shipped["walk"]) and text == "a person walks"
+
+
+def test_lesson_defaults_need_no_external_data(monkeypatch, tmp_path):
+    monkeypatch.setenv("PHYSLAB_EXTERNAL_DATA", str(tmp_path))      # an empty folder
+    x, text = demo.walk_window()
+    assert x.shape == (40, 22, 3) and text == "a person walks"
+    real = demo.real_windows({"a person walks": "walk", "a person runs": "run"})
+    assert {k: v.shape[1:] for k, v in real.items()} == {
+        "a person walks": (40, 22, 3), "a person runs": (40, 22, 3)}
+    held = demo._held_out(3, None, None)
+    assert held["joints"].shape == (3, 40, 22, 3) and len(held["text"]) == 3
+    with pytest.raises(FileNotFoundError, match="lesson_windows.npz"):
+        demo.walk_window(start=21)
+    with pytest.raises(FileNotFoundError, match="lesson_windows.npz"):
+        demo.real_windows({"a person kicks": "kick"})
+    with pytest.raises(FileNotFoundError, match="lesson_windows.npz"):
+        demo._held_out(7, None, None)
+
+
+@pytest.mark.parametrize("windows", [0, -1, 2.5, True, float("nan")])
+def test_held_out_window_count_is_checked(windows):
+    with pytest.raises(ValueError, match="windows must be an integer"):
+        demo._held_out(windows, None, None)
