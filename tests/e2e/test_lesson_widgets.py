@@ -47,12 +47,18 @@ CHROMIUM_ARGS = ["--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage", "--
                  "--no-first-run", "--disable-background-networking", "--disable-component-update",
                  "--disable-sync"]
 
-# Timeouts (seconds). A whole test takes ~15-30 s on these machines.
+# Timeouts (seconds). A whole test takes ~15-60 s on a quiet machine of this kind. Waits on the
+# kernel are proportional to its work: Run All may take up to STALL_TIMEOUT per cell (the
+# deadline moves on whenever another cell finishes), a widget update as long as the kernel stays
+# busy; MAX_WAIT caps both, so a hung kernel still fails.
 SERVER_START_TIMEOUT = 60
 PAGE_TIMEOUT = 60
-RUN_ALL_TIMEOUT = 120
+STALL_TIMEOUT = 120
 UPDATE_TIMEOUT = 30
+MAX_WAIT = 900
 SETTLE_SECONDS = 1.0  # the widget's image must stay unchanged this long (with the kernel idle)
+# A slider whose description eats the row leaves no room for its track (lesson 08 once).
+MIN_TRACK_PX = 100
 
 # What a student would see as an error in an output area (tracebacks are rendered as stderr).
 STDERR_SEL = '.jp-OutputArea-output[data-mime-type="application/vnd.jupyter.stderr"]'
@@ -159,18 +165,30 @@ class LabServer:
 
 
 # --------------------------------------------------------------------------- page helpers
-def _wait_until(page, check, timeout, what, poll_ms=200):
+def _wait_until(page, check, timeout, what, poll_ms=200, progress=None):
     """Poll ``check()`` (truthy result = done) until ``timeout`` seconds; fail saying ``what``
     (a string, or a callable giving one at failure time). ``check`` may raise AssertionError to
-    fail early (e.g. when an error output shows up)."""
-    deadline = time.monotonic() + timeout
+    fail early (e.g. when an error output shows up).
+
+    ``progress``: optional callable returning a token of ongoing work (the number of executed
+    cells, whether the kernel is busy...); whenever the token changes, or while it is ``True``,
+    the deadline moves to ``timeout`` seconds later, never beyond :data:`MAX_WAIT` in all. So a
+    slow machine gets the time its work needs, and a stalled kernel still fails."""
+    start = last = time.monotonic()
+    token = progress() if progress else None
     while True:
         result = check()
         if result:
             return result
-        if time.monotonic() > deadline:
+        now = time.monotonic()
+        if progress:
+            new = progress()
+            if new is True or new != token:
+                token, last = new, now
+        if now - last > timeout or now - start > MAX_WAIT:
             what = what() if callable(what) else what
-            raise AssertionError(f"timed out after {timeout} s waiting for {what}")
+            raise AssertionError(f"timed out after {now - start:.0f} s ({now - last:.0f} s "
+                                 f"without progress) waiting for {what}")
         page.wait_for_timeout(poll_ms)
 
 
@@ -217,7 +235,8 @@ def _wait_new_image(page, box, old_src, what):
     idle and the image stayed the same for SETTLE_SECONDS (each key press makes its own update)."""
     _wait_until(page, lambda: _check_errors_then(page, lambda: _img_src(box) not in (None, old_src),
                                                  f"after {what}"),
-                UPDATE_TIMEOUT, f"the widget figure to change after {what}")
+                UPDATE_TIMEOUT, f"the widget figure to change after {what}",
+                progress=lambda: not _kernel_idle(page))
     state = {"src": None, "since": 0.0}
 
     def settled():
@@ -228,7 +247,7 @@ def _wait_new_image(page, box, old_src, what):
         return now - state["since"] >= SETTLE_SECONDS
 
     _wait_until(page, lambda: _check_errors_then(page, settled, f"after {what}"), UPDATE_TIMEOUT,
-                f"the widget figure to settle after {what}")
+                f"the widget figure to settle after {what}", progress=lambda: not _kernel_idle(page))
     return state["src"]
 
 
@@ -318,17 +337,41 @@ def _open_and_run_all(page, lab, lesson, n_boxes, t0):
         return (boxes.count() == n_boxes
                 and not any("*" in t for t in prompts.all_inner_texts()))
 
+    def executed():  # "[3]:" prompts: the number of cells that finished
+        return sum(bool(re.search(r"\d", t)) for t in prompts.all_inner_texts())
+
     _wait_until(page, lambda: _check_errors_then(page, all_ran, "during Run All"),
-                RUN_ALL_TIMEOUT,
+                STALL_TIMEOUT,
                 lambda: f"all cells to run and {n_boxes} interactive widget(s) (.widget-interact) "
                         f"to render after Run All Cells (found {boxes.count()}; prompts "
-                        f"{[t for t in prompts.all_inner_texts() if t.strip()]})")
+                        f"{[t for t in prompts.all_inner_texts() if t.strip()]})",
+                progress=executed)
     cells = page.locator(".jp-CodeCell").filter(has=page.locator(LIVE_BOX_SEL))
     assert cells.count() == n_boxes, (
         f"expected {n_boxes} code cells holding one interactive widget each, found "
         f"{cells.count()} cells holding {boxes.count()} widgets")
     print(f"[e2e] all cells ran, {n_boxes} widget(s) rendered after {time.monotonic() - t0:.1f} s")
-    return [(cells.nth(i), cells.nth(i).locator(LIVE_BOX_SEL)) for i in range(n_boxes)]
+    pairs = [(cells.nth(i), cells.nth(i).locator(LIVE_BOX_SEL)) for i in range(n_boxes)]
+    for _, box in pairs:
+        _assert_slider_tracks(box)
+    return pairs
+
+
+def _assert_slider_tracks(box):
+    """Every slider of ``box`` shows its whole description and a track a student can drag
+    (at least :data:`MIN_TRACK_PX` wide): a long description must not squeeze it away."""
+    sliders = box.locator(".widget-slider")
+    for i in range(sliders.count()):
+        sl = sliders.nth(i)
+        label = sl.locator(".widget-label").first
+        track = sl.locator(".slider-container").first.bounding_box()
+        width = track["width"] if track else 0.0
+        text = label.inner_text().strip()
+        clipped = label.evaluate("e => e.scrollWidth > e.clientWidth + 1")
+        assert width >= MIN_TRACK_PX and not clipped, (
+            f"slider {text!r}: track {width:.0f} px wide (need >= {MIN_TRACK_PX}), description "
+            f"{'clipped' if clipped else 'fits'}; give the widget a wider description or put the "
+            f"label above it (physlab.viz.widgets)")
 
 
 def _initial_figure(page, cell, box, shots_dir, name, t0, min_size=(200, 150)):
@@ -626,3 +669,58 @@ def _drive_lesson09(page, lab, shots_dir):
                                   "ArrowLeft", 5, "action", "a person runs",
                                   ("1_initial", "2_w_lowered", "3_runs"))
     _assert_no_errors(page, f"at the end (widget screenshots: {', '.join(map(str, shots))})")
+
+
+# --------------------------------------------------------------------------- every other lesson
+SPECIFIC_TESTS = {LESSON01, LESSON04, LESSON06, LESSON09}
+
+
+def _widget_cells(path):
+    """Number of code cells of a lesson that build an ``interact`` widget."""
+    nb = json.loads(path.read_text(encoding="utf-8"))
+    return sum(1 for c in nb["cells"] if c["cell_type"] == "code"
+               and re.search(r"(?m)^\s*(\w+\s*=\s*)?interact\(", "".join(c["source"])))
+
+
+WIDGET_LESSONS = {p.name: n for p in sorted(LESSONS.glob("*.ipynb")) if (n := _widget_cells(p))}
+
+
+def test_every_widget_lesson_is_driven_in_the_browser():
+    """No lesson with widgets escapes the browser tests (collected without a browser)."""
+    assert SPECIFIC_TESTS <= set(WIDGET_LESSONS), sorted(WIDGET_LESSONS)
+    assert len(WIDGET_LESSONS) >= 8, sorted(WIDGET_LESSONS)
+
+
+@pytest.mark.e2e
+@pytest.mark.timeout(600)
+@pytest.mark.parametrize("lesson", sorted(set(WIDGET_LESSONS) - SPECIFIC_TESTS))
+def test_lesson_widgets_render_and_redraw(lab, tmp_path, lesson):
+    """Any other lesson: every widget draws one figure with usable sliders; moving the first
+    slider of each box (or picking the next option of its first dropdown) redraws it."""
+    _in_browser(lab, tmp_path, lambda page, lab, shots: _drive_any(page, lab, shots, lesson))
+
+
+def _drive_any(page, lab, shots_dir, lesson):
+    t0 = time.monotonic()
+    pairs = _open_and_run_all(page, lab, lesson, WIDGET_LESSONS[lesson], t0)
+    srcs = [_initial_figure(page, cell, box, shots_dir, f"{k}_initial", t0, min_size=(200, 100))
+            for k, (cell, box) in enumerate(pairs)]
+    for k, ((cell, box), (src, shot)) in enumerate(zip(pairs, srcs)):
+        if box.locator(".widget-slider").count():
+            label = box.locator(".widget-slider .widget-label").first.inner_text().strip()
+            handle, before = _press_slider(box, label, "ArrowRight", 1, shot)
+            if _readout(handle) == before:                     # already at its maximum
+                handle.locator(".noUi-handle").press("ArrowLeft")
+            what = f"moving the {label!r} slider"
+        else:
+            select = box.locator(".widget-dropdown select").first
+            options = select.locator("option").all_inner_texts()
+            current = select.evaluate("s => s.selectedIndex")
+            select.select_option(index=(current + 1) % len(options))
+            what = f"picking {options[(current + 1) % len(options)]!r}"
+        new = _wait_new_image(page, box, src, what)
+        shot2 = _snapshot(box, shots_dir, f"{k}_moved", new)
+        _check_single_figure(cell, box, shot2)
+        print(f"[e2e] {lesson} box {k}: {what} redrew the figure after "
+              f"{time.monotonic() - t0:.1f} s")
+    _assert_no_errors(page, f"at the end (widget screenshots in {shots_dir})")
