@@ -9,13 +9,18 @@ from __future__ import annotations
 __all__ = ["float_slider", "log_slider", "int_slider", "dropdown", "interact"]
 
 _STYLE = {"description_width": "initial"}
+# "initial" shows a description in full; ipywidgets' default 300 px row then leaves a long
+# one (lesson 08's "speedup (ε = speedup/(N−1))") no room for the track. A wider row keeps a
+# track of >= 150 px next to descriptions up to ~40 characters (checked in the browser tests).
+_SLIDER_LAYOUT = {"width": "520px", "max_width": "100%"}
 
 
 def float_slider(value, min, max, step, description="", readout_format=".3g"):
     import ipywidgets as w
 
     return w.FloatSlider(value=value, min=min, max=max, step=step, description=description,
-                         continuous_update=False, readout_format=readout_format, style=_STYLE)
+                         continuous_update=False, readout_format=readout_format, style=_STYLE,
+                         layout=dict(_SLIDER_LAYOUT))
 
 
 def log_slider(value, min, max, description="", base=10, step=0.05, readout_format=".3g"):
@@ -26,14 +31,15 @@ def log_slider(value, min, max, description="", base=10, step=0.05, readout_form
 
     lo, hi = math.log(min, base), math.log(max, base)
     return w.FloatLogSlider(value=value, base=base, min=lo, max=hi, step=step, description=description,
-                            continuous_update=False, readout_format=readout_format, style=_STYLE)
+                            continuous_update=False, readout_format=readout_format, style=_STYLE,
+                            layout=dict(_SLIDER_LAYOUT))
 
 
 def int_slider(value, min, max, step=1, description=""):
     import ipywidgets as w
 
     return w.IntSlider(value=value, min=min, max=max, step=step, description=description,
-                       continuous_update=False, style=_STYLE)
+                       continuous_update=False, style=_STYLE, layout=dict(_SLIDER_LAYOUT))
 
 
 def dropdown(options, value=None, description=""):
