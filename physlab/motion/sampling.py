@@ -164,6 +164,7 @@ class Generator:
         self.model, self.scheduler, self.stats = model, scheduler, stats
         self.text_cache, self.stage, self.path = text_cache, stage, path
         self.config = model.config
+        self.train_takes = ()   # Bandai-Namco takes trained on, when the checkpoint says
 
     @classmethod
     def from_checkpoint(cls, path):
@@ -192,8 +193,10 @@ class Generator:
         cache = loaded["text_cache"]
         if (ckpt.get("train_config") or {}).get("text_encoder") == "hash":
             cache.encoder = hash_encoder        # smoke / test models: the fake encoder
-        return cls(loaded["model"], loaded["scheduler"], loaded["stats"], cache,
-                   loaded["stage"], path)
+        gen = cls(loaded["model"], loaded["scheduler"], loaded["stats"], cache,
+                  loaded["stage"], path)
+        gen.train_takes = tuple(ckpt.get("train_takes") or ())    # () = not recorded
+        return gen
 
     def __repr__(self):
         return (f"Generator(stage={self.stage!r}, path={str(self.path)!r}, "

@@ -58,6 +58,7 @@ import dataclasses
 import hashlib
 import math
 import os
+import re
 import sys
 import time
 from dataclasses import dataclass
@@ -105,7 +106,10 @@ __all__ = [
 ]
 
 CHECKPOINT_KIND = "physlab.motion.train"
-CHECKPOINT_VERSION = 1
+#: 2: safe to load (``torch.load(weights_only=True)``): tensors, numbers, strings, lists and
+#: dicts only — numpy arrays are stored as tagged tensors / string lists (:func:`_to_safe`).
+#: 1 (before 2026-11): a general pickle, which can run code when loaded; refused.
+CHECKPOINT_VERSION = 2
 
 #: Noise schedules by name. "mld": MLD's (Chen et al. 2023) scaled-linear schedule
 #: (sqrt(ᾱ_T) ≈ 0.068, so x̂₀ of Eq. (7) is amplified at most ~15x at the noisiest step in
@@ -222,7 +226,8 @@ def prepare_data(cfg: TrainConfig, stats: FeatureStats | None = None, cache=None
     dict with ``x0`` (N, 39, 137) float32 normalised features, ``joints`` (N, 40, 22, 3)
     float64 canonical windows, ``text_index`` (N,) int64 into ``text_emb`` (V, 384) float32,
     ``texts`` (list of V str), ``stats`` (:class:`FeatureStats`, computed here unless given),
-    ``cache`` (:class:`~physlab.motion.text.EmbeddingCache`).
+    ``cache`` (:class:`~physlab.motion.text.EmbeddingCache`), ``train_takes`` (sorted list of
+    the Bandai-Namco takes trained on; stored in the checkpoint).
     """
     root = cfg.data_root or None
     ids = None
@@ -244,7 +249,8 @@ def prepare_data(cfg: TrainConfig, stats: FeatureStats | None = None, cache=None
             "joints": win.joints,
             "text_index": torch.tensor([index[t] for t in win.text], dtype=torch.int64),
             "text_emb": torch.tensor(E, dtype=torch.float32), "texts": texts,
-            "stats": stats, "cache": cache}
+            "stats": stats, "cache": cache,
+            "train_takes": sorted({c.take for c in train_clips})}
 
 
 def condition_batch(windows, rng, min_t_r=5):
@@ -310,22 +316,84 @@ def control_losses(x0_hat, joints, cond, mean, std):
 # ----------------------------------------------------------------------------- checkpoints
 
 
+_NDARRAY, _STRARRAY = "__ndarray__", "__str_ndarray__"
+
+
+def _to_safe(obj):
+    """``obj`` with every numpy array / scalar replaced by what ``torch.load(weights_only=
+    True)`` can read back without unpickling code: numeric arrays -> ``{"__ndarray__":
+    tensor}``, string arrays -> ``{"__str_ndarray__": [str], "shape": [int]}``, numpy scalars
+    -> Python numbers. Dicts, lists, tuples (as lists), tensors, str, numbers, None pass."""
+    if isinstance(obj, dict):
+        return {k: _to_safe(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_to_safe(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        if obj.dtype.kind in "US":
+            return {_STRARRAY: [str(x) for x in obj.reshape(-1)], "shape": list(obj.shape)}
+        return {_NDARRAY: torch.from_numpy(np.ascontiguousarray(obj).copy())}
+    if isinstance(obj, np.generic):
+        return obj.item()
+    return obj
+
+
+def _from_safe(obj):
+    """Inverse of :func:`_to_safe` (tagged entries back to numpy arrays)."""
+    if isinstance(obj, dict):
+        if set(obj) == {_NDARRAY}:
+            return obj[_NDARRAY].numpy()
+        if set(obj) == {_STRARRAY, "shape"}:
+            return np.array(obj[_STRARRAY], dtype=str).reshape(obj["shape"])
+        return {k: _from_safe(v) for k, v in obj.items()}
+    if isinstance(obj, list):
+        return [_from_safe(v) for v in obj]
+    return obj
+
+
 def save_checkpoint(path, state):
-    """``torch.save(state)`` to ``path`` atomically; returns the Path."""
-    return atomic_write(path, lambda tmp: torch.save(state, tmp), suffix=".pt")
+    """``torch.save`` of ``state`` (made loadable with ``weights_only=True`` by
+    :func:`_to_safe`) to ``path`` atomically; returns the Path."""
+    safe = _to_safe(state)
+    return atomic_write(path, lambda tmp: torch.save(safe, tmp), suffix=".pt")
+
+
+def _last_line(e):
+    """The informative line of torch's long weights-only error ("Unsupported operand 32")."""
+    lines = [ln.strip() for ln in str(e).splitlines() if ln.strip()]
+    useful = [ln for ln in lines if ln.startswith("Unsupported")] or lines[-1:]
+    return useful[0][:160] if useful else type(e).__name__
 
 
 def load_checkpoint(path):
     """Read a checkpoint written by :func:`train` / :func:`export_weights`.
 
-    FileNotFoundError if missing, ValueError if unreadable (truncated / corrupt) or not a
-    physlab motion checkpoint."""
+    Loading never runs code from the file: ``torch.load(weights_only=True)`` accepts only
+    tensors, numbers, strings, lists and dicts, so a crafted pickle is refused, not executed.
+
+    FileNotFoundError if missing; ValueError if unreadable (truncated / corrupt / holding
+    Python objects), not a physlab motion checkpoint, of another format version, or with
+    non-finite weights (naming the parameter)."""
+    import pickle
+
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"no checkpoint at {path}; train one with `python -m "
                                 f"physlab.motion.train --stage base --out {path}`")
     try:
-        ckpt = torch.load(path, map_location="cpu", weights_only=False)
+        ckpt = torch.load(path, map_location="cpu", weights_only=True)
+    except pickle.UnpicklingError as e:
+        found = re.search(r"Unsupported global: GLOBAL (\S+)", str(e))
+        if not found:                              # not a pickle of objects: a damaged file
+            raise ValueError(f"{path} is not a readable checkpoint (the file is damaged: "
+                             f"{_last_line(e)}); it may be truncated or corrupt: delete it "
+                             f"and retrain, or use an older copy") from None
+        raise ValueError(
+            f"{path} was refused: it holds Python objects that loading could execute, not "
+            f"only tensors, numbers and strings (it asks for {found.group(1)}). physlab "
+            f"never unpickles "
+            f"those. A checkpoint of physlab before format version {CHECKPOINT_VERSION} "
+            f"(2026-11) is such a file: retrain it (`make motion-model`, or the train "
+            f"command in data/motion/README.md)") from None
     except Exception as e:  # noqa: BLE001 - torch raises many kinds for a corrupt file
         raise ValueError(f"{path} is not a readable checkpoint ({type(e).__name__}: {e}); "
                          f"it may be truncated or corrupt: delete it and retrain, or use an "
@@ -336,7 +404,15 @@ def load_checkpoint(path):
     if ckpt.get("version") != CHECKPOINT_VERSION:
         raise ValueError(f"{path} has checkpoint version {ckpt.get('version')}, this code "
                          f"reads version {CHECKPOINT_VERSION}")
-    return ckpt
+    weights = ckpt.get("model")
+    if not isinstance(weights, dict) or not all(torch.is_tensor(v) for v in weights.values()):
+        raise ValueError(f"{path} has no state dict of tensors under 'model'")
+    for name, v in weights.items():
+        if v.is_floating_point() and not bool(torch.isfinite(v).all()):
+            raise ValueError(f"checkpoint {path} has non-finite weights (NaN or inf) in "
+                             f"{name!r}: it comes from a diverged training run; use an "
+                             f"earlier checkpoint or retrain with a smaller --lr")
+    return _from_safe(ckpt)
 
 
 def _build(ckpt):
@@ -539,7 +615,8 @@ def train(**kwargs):
                 "model": model.state_dict(), "optimizer": opt.state_dict(), "step": step,
                 "rng": rngs, "feature_stats": {"mean": stats.mean, "std": stats.std},
                 "scheduler": sched.to_dict(), "text_cache": cache.state_dict(),
-                "param_digests": digests, "loss": loss, "world_size": world})
+                "param_digests": digests, "loss": loss, "world_size": world,
+                "train_takes": data["train_takes"]})
         return digests
 
     bar = tqdm(total=cfg.steps, initial=step, disable=not (cfg.progress and rank == 0),
