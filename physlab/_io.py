@@ -2,24 +2,62 @@
 from __future__ import annotations
 
 import os
-import tempfile
+import re
+import secrets
+import time
 from pathlib import Path
+
+#: A temporary file untouched for this long (s) belongs to a writer that was killed; the next
+#: write of the same target removes it. (A live writer keeps touching its file.)
+STALE_TEMP_SECONDS = 600.0
+
+
+def _temp_pattern(path, suffix):
+    return re.compile(rf"^\.{re.escape(path.stem)}\.[0-9a-f]{{16}}{re.escape(suffix)}$")
+
+
+def remove_stale_temps(path, suffix=".tmp", older_than=STALE_TEMP_SECONDS):
+    """Delete the temporary files that :func:`atomic_write` left next to ``path`` when its
+    writer was killed (``.<stem>.<16 hex><suffix>``, unmodified for ``older_than`` seconds).
+    Returns the number removed."""
+    path = Path(path)
+    pattern, now, n = _temp_pattern(path, suffix), time.time(), 0
+    try:
+        entries = list(os.scandir(path.parent))
+    except OSError:
+        return 0
+    for e in entries:
+        if not pattern.match(e.name):
+            continue
+        try:
+            if e.is_file(follow_symlinks=False) and now - e.stat().st_mtime > older_than:
+                os.remove(e.path)
+                n += 1
+        except OSError:
+            pass                                  # gone already, or not ours to remove
+    return n
 
 
 def atomic_write(path, write, suffix=".tmp"):
     """Call ``write(tmp_path)`` on a temporary file next to ``path``, then ``os.replace`` it
-    onto ``path``: readers never see a half-written file, and a failure leaves no temp file.
-    ``suffix`` lets writers that choose a format by extension (imageio) see the right one.
+    onto ``path``: readers never see a half-written file, a failure leaves the previous
+    ``path`` untouched and no temp file, and temp files of killed earlier writers of the same
+    target are removed (:func:`remove_stale_temps`). ``suffix`` lets writers that choose a
+    format by extension (imageio) see the right one. The file gets the usual mode
+    ``0o666 & ~umask`` (created by ``os.open``, so the process umask is never changed).
     Returns ``path`` as a :class:`~pathlib.Path`."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=suffix, dir=path.parent)
-    os.close(fd)
+    remove_stale_temps(path, suffix)
+    while True:
+        tmp = path.parent / f".{path.stem}.{secrets.token_hex(8)}{suffix}"
+        try:
+            os.close(os.open(tmp, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o666))
+            break
+        except FileExistsError:                   # 2**64 names: practically never
+            continue
     try:
-        write(tmp)
-        umask = os.umask(0)  # mkstemp makes 0600 files; give the usual 0666 & ~umask instead
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)
+        write(str(tmp))
         os.replace(tmp, path)
     except BaseException:
         if os.path.exists(tmp):

@@ -603,17 +603,44 @@ class WarpRenderer:
 
 
 # ------------------------------------------------------------------------------- outputs
+#: Largest frame rate the writers accept (frames per second).
+MAX_FPS = 1000.0
+
+
+def _check_fps(fps):
+    """``fps`` as a float in (0, :data:`MAX_FPS`]; ValueError naming it otherwise."""
+    if isinstance(fps, bool) or not isinstance(fps, (int, float, np.integer, np.floating)) \
+            or not np.isfinite(fps) or not 0 < fps <= MAX_FPS:
+        raise ValueError(f"fps must be a number in (0, {MAX_FPS:g}] frames per second, got "
+                         f"{fps!r}")
+    return float(fps)
+
+
 def _frames_uint8(frames):
+    """Frames as ``(T, H, W, 3|4)`` uint8: uint8 as is, bool as 0/255, uint16 by its value
+    range (x / 257), float clipped to [0, 1]; ``(T, H, W)`` grey gets three channels.
+    ValueError naming what is wrong (shape, dtype, NaN/inf)."""
     f = np.asarray(frames)
     if f.ndim == 3:  # (T, H, W) grey
         f = np.repeat(f[..., None], 3, axis=3)
-    if f.ndim != 4 or f.shape[3] not in (3, 4) or f.shape[0] == 0:
-        raise ValueError(f"frames must have shape (T, H, W, 3|4) with T >= 1, got {f.shape}")
-    if f.dtype != np.uint8:
-        if not np.issubdtype(f.dtype, np.floating):
-            raise ValueError(f"frames must be uint8 or float in [0, 1], got dtype {f.dtype}")
-        f = (np.clip(f, 0, 1) * 255 + 0.5).astype(np.uint8)
-    return f
+    if f.ndim != 4 or f.shape[3] not in (3, 4) or 0 in f.shape:
+        raise ValueError(f"frames must have shape (T, H, W, 3|4) with T, H, W >= 1, got "
+                         f"{f.shape}")
+    if f.dtype == np.uint8:
+        return f
+    if f.dtype == bool:
+        return f.astype(np.uint8) * 255
+    if f.dtype == np.uint16:
+        return ((f.astype(np.uint32) + 128) // 257).astype(np.uint8)
+    if not np.issubdtype(f.dtype, np.floating):
+        raise ValueError(f"frames must be uint8, uint16, bool or float in [0, 1], got dtype "
+                         f"{f.dtype}")
+    bad = ~np.isfinite(f)
+    if bad.any():
+        t = int(np.argwhere(bad)[0][0])
+        raise ValueError(f"frames hold {int(bad.sum())} NaN/inf values (first in frame {t}); "
+                         f"fix the renderer's output before writing a video")
+    return (np.clip(f, 0, 1) * 255 + 0.5).astype(np.uint8)
 
 
 def frames_to_gif(frames, path, fps=20):
@@ -624,7 +651,14 @@ def frames_to_gif(frames, path, fps=20):
     from physlab.viz.anim import save_gif
 
     f = _frames_uint8(frames)
+    fps = _check_fps(fps)
     return atomic_write(path, lambda tmp: save_gif(f, tmp, fps=fps), ".gif")
+
+
+def _last_line(e):
+    """``"Type: last non-empty line"`` of an exception (ffmpeg errors carry its banner)."""
+    lines = [ln.strip() for ln in str(e).splitlines() if ln.strip()]
+    return f"{type(e).__name__}: {lines[-1][:200]}" if lines else type(e).__name__
 
 
 def _write_mp4(f, path, fps, crf):
@@ -640,10 +674,23 @@ def _write_mp4(f, path, fps, crf):
         output_params=["-crf", str(int(crf)), "-preset", "medium", "-movflags", "+faststart",
                        "-f", "mp4"],
         ffmpeg_log_level="error")
-    writer.send(None)  # start ffmpeg
-    for frame in f:
-        writer.send(np.ascontiguousarray(frame))
-    writer.close()
+    try:
+        writer.send(None)  # start ffmpeg
+        for frame in f:
+            writer.send(np.ascontiguousarray(frame))
+        writer.close()
+    except Exception as e:  # noqa: BLE001 - a dead ffmpeg surfaces as OSError/BrokenPipe/...
+        raise RuntimeError(f"ffmpeg failed while writing the MP4 ({_last_line(e)}); disk "
+                           f"full or a file-size limit?") from None
+    # ffmpeg can exit early (killed, disk full) without the pipe reporting it: read the file
+    # back and insist on every frame before it replaces the target.
+    try:
+        n, _ = imageio_ffmpeg.count_frames_and_secs(str(path))
+    except Exception as e:  # noqa: BLE001
+        raise RuntimeError(f"ffmpeg wrote an unreadable MP4 ({_last_line(e)}); disk full or "
+                           f"a file-size limit?") from None
+    if n != T:
+        raise RuntimeError(f"ffmpeg wrote {n} of {T} frames; disk full or a file-size limit?")
 
 
 def frames_to_mp4(frames, path, fps=24, crf=23):
@@ -655,9 +702,14 @@ def frames_to_mp4(frames, path, fps=24, crf=23):
     atomically. Returns the Path.
     """
     f = _frames_uint8(frames)
-    if fps <= 0:
-        raise ValueError(f"fps must be > 0, got {fps}")
-    return atomic_write(path, lambda tmp: _write_mp4(f, tmp, fps, crf), ".mp4")
+    fps = _check_fps(fps)
+    if isinstance(crf, bool) or not isinstance(crf, (int, float)) or not 0 <= crf <= 51:
+        raise ValueError(f"crf must be a number in 0..51 (x264's quality scale), got {crf!r}")
+    try:
+        return atomic_write(path, lambda tmp: _write_mp4(f, tmp, fps, crf), ".mp4")
+    except RuntimeError as e:
+        raise RuntimeError(f"could not write {path}: {e}; the previous file (if any) is "
+                           f"unchanged") from None
 
 
 def frames_to_html(frames, fps=24, fmt="video", crf=25, width=None):

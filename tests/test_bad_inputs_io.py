@@ -1,0 +1,153 @@
+"""Bad input and faults at physlab's edges: video/GIF writers, atomic writes, images, meshes,
+sizes a user types, and the ``physlab`` command. Each case must raise a clear error (naming
+the argument, file or limit) or behave correctly — never lose a good file or hang."""
+import os
+import stat
+import subprocess
+import sys
+import textwrap
+import time
+
+import numpy as np
+import pytest
+
+from physlab import render
+from physlab._io import STALE_TEMP_SECONDS, atomic_write, remove_stale_temps
+
+FRAMES = (np.random.default_rng(0).random((6, 32, 48, 3)) * 255).astype(np.uint8)
+
+
+# ----------------------------------------------------------------------------- writers
+def _good_mp4(tmp_path):
+    path = render.frames_to_mp4(FRAMES, tmp_path / "a.mp4", fps=12)
+    return path, path.read_bytes()
+
+
+def _fake_ffmpeg(tmp_path, body):
+    exe = tmp_path / "ffmpeg"
+    exe.write_text("#!/bin/sh\n" + textwrap.dedent(body))
+    exe.chmod(exe.stat().st_mode | stat.S_IXUSR)
+    return str(exe)
+
+
+def _temps(tmp_path):
+    return sorted(p.name for p in tmp_path.iterdir() if p.name.startswith("."))
+
+
+@pytest.mark.parametrize("body, cause", [
+    ("head -c 2000 > /dev/null\nexit 1\n",                                       # dies early
+     "ffmpeg failed while writing|ffmpeg wrote an unreadable MP4"),
+    ('cat > /dev/null\nfor a; do last="$a"; done\nprintf junk > "$last"\n',     # lies: rc 0
+     "ffmpeg wrote an unreadable MP4|ffmpeg wrote 0 of 6 frames"),
+])
+def test_a_failing_ffmpeg_keeps_the_previous_mp4(tmp_path, monkeypatch, body, cause):
+    path, good = _good_mp4(tmp_path)
+    real = __import__("imageio_ffmpeg").get_ffmpeg_exe()
+    fake = _fake_ffmpeg(tmp_path / "..", body)
+    # the fake writes; the real one reads back (count_frames_and_secs)
+    monkeypatch.setenv("IMAGEIO_FFMPEG_EXE", fake)
+    import imageio_ffmpeg
+    monkeypatch.setattr(imageio_ffmpeg, "count_frames_and_secs",
+                        lambda p: _count_with(real, p))
+    with pytest.raises(RuntimeError, match=rf"could not write .*a\.mp4: ({cause}).*previous file"):
+        render.frames_to_mp4(FRAMES[::-1], path, fps=12)
+    assert path.read_bytes() == good and _temps(tmp_path) == []
+
+
+def _count_with(exe, path):
+    os.environ["IMAGEIO_FFMPEG_EXE"] = exe
+    try:
+        import imageio_ffmpeg._io as io
+        return io.count_frames_and_secs(path)
+    finally:
+        os.environ.pop("IMAGEIO_FFMPEG_EXE", None)
+
+
+def test_a_file_size_limit_keeps_the_previous_mp4(tmp_path):
+    """Disk full, simulated by RLIMIT_FSIZE in a child process (ffmpeg inherits it)."""
+    _, good = _good_mp4(tmp_path)
+    code = textwrap.dedent(f"""
+        import resource, signal, numpy as np
+        from physlab import render
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+        resource.setrlimit(resource.RLIMIT_FSIZE, (20_000, 20_000))
+        noise = (np.random.default_rng(1).random((40, 96, 128, 3)) * 255).astype(np.uint8)
+        try:
+            render.frames_to_mp4(noise, {str(tmp_path / 'a.mp4')!r}, fps=12)
+        except RuntimeError as e:
+            print("ERR", e)
+    """)
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         timeout=120)
+    assert "ERR could not write" in out.stdout and "previous file" in out.stdout, out
+    assert (tmp_path / "a.mp4").read_bytes() == good and _temps(tmp_path) == []
+
+
+def test_temp_files_of_killed_writers_are_cleaned_on_the_next_write(tmp_path):
+    target = tmp_path / "clip.gif"
+    old = tmp_path / ".clip.0123456789abcdef.gif"          # a killed writer's leftover
+    fresh = tmp_path / ".clip.fedcba9876543210.gif"        # a writer still at work
+    other = tmp_path / ".clip.0123456789abcdef.mp4"        # another target's
+    for p in (old, fresh, other):
+        p.write_bytes(b"partial")
+    past = time.time() - STALE_TEMP_SECONDS - 5
+    os.utime(old, (past, past))
+    os.utime(other, (past, past))
+    render.frames_to_gif(FRAMES, target, fps=10)
+    assert target.is_file() and not old.exists() and fresh.exists() and other.exists()
+    assert remove_stale_temps(tmp_path / "clip.mp4", ".mp4") == 1 and not other.exists()
+
+
+def test_atomic_write_gives_the_usual_mode_without_touching_the_umask(tmp_path):
+    before = os.umask(0o022)
+    try:
+        p = atomic_write(tmp_path / "x.txt", lambda t: open(t, "w").write("hi"))
+        assert stat.S_IMODE(p.stat().st_mode) == 0o644
+        assert os.umask(0o022) == 0o022                   # unchanged by the write
+    finally:
+        os.umask(before)
+
+
+def test_a_failed_write_leaves_the_old_file_and_no_temp(tmp_path):
+    p = tmp_path / "keep.txt"
+    p.write_text("good")
+
+    def boom(tmp):
+        open(tmp, "w").write("half")
+        raise OSError("disk full")
+
+    with pytest.raises(OSError, match="disk full"):
+        atomic_write(p, boom)
+    assert p.read_text() == "good" and _temps(tmp_path) == []
+
+
+NAN = np.full((2, 8, 8, 3), np.nan)
+
+
+@pytest.mark.parametrize("call, match", [
+    (lambda d: render.frames_to_gif(NAN, d / "a.gif"), r"NaN/inf values \(first in frame 0\)"),
+    (lambda d: render.frames_to_mp4(NAN, d / "a.mp4"), r"NaN/inf"),
+    (lambda d: render.frames_to_gif(np.zeros((0, 8, 8, 3)), d / "a.gif"), r"T, H, W >= 1"),
+    (lambda d: render.frames_to_gif(np.zeros((2, 8, 8, 5)), d / "a.gif"), r"\(T, H, W, 3\|4\)"),
+    (lambda d: render.frames_to_gif(np.zeros((8, 8)), d / "a.gif"), r"\(T, H, W, 3\|4\)"),
+    (lambda d: render.frames_to_gif(np.zeros((2, 8, 8, 3), np.int64), d / "a.gif"),
+     r"dtype int64"),
+    (lambda d: render.frames_to_gif(FRAMES, d / "a.gif", fps=0), r"fps must be a number"),
+    (lambda d: render.frames_to_gif(FRAMES, d / "a.gif", fps=float("nan")), r"fps must be"),
+    (lambda d: render.frames_to_gif(FRAMES, d / "a.gif", fps=1e9), r"fps must be .*1000"),
+    (lambda d: render.frames_to_mp4(FRAMES, d / "a.mp4", fps=-1), r"fps must be"),
+    (lambda d: render.frames_to_mp4(FRAMES, d / "a.mp4", crf=99), r"crf must be .*0\.\.51"),
+    (lambda d: render.frames_to_mp4(FRAMES, d / "a.mp4", fps=True), r"fps must be"),
+])
+def test_writers_refuse_bad_frames_and_settings(tmp_path, call, match):
+    with pytest.raises(ValueError, match=match):
+        call(tmp_path)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_16_bit_and_bool_frames_are_converted_by_range(tmp_path):
+    f16 = (FRAMES.astype(np.uint16) * 257)
+    assert np.array_equal(render._frames_uint8(f16), FRAMES)
+    b = np.zeros((1, 4, 4, 3), bool)
+    b[0, 0, 0] = True
+    assert render._frames_uint8(b)[0, 0, 0, 0] == 255 and render._frames_uint8(b).max() == 255
