@@ -72,6 +72,11 @@ __all__ = [
 
 #: Default number of triangles per polygon area used by :func:`default_max_area`.
 TARGET_TRIANGLES = 300
+#: Largest triangle count Triangle is asked for (area / max_area): more fails fast instead of
+#: running for minutes and filling memory.
+MAX_TRIANGLES = 2_000_000
+#: Largest relative difference between a mask's area and its mesh's (:func:`mesh_from_mask`).
+AREA_TOLERANCE = 0.10
 #: Outline corners below this angle (degrees) are chamfered by :func:`mesh_from_mask`.
 CHAMFER_ANGLE = 60.0
 #: Smallest default area bound (px²) of :func:`mesh_from_mask`: finer than a few pixels
@@ -227,6 +232,15 @@ class TriMesh:
             t = int(np.flatnonzero(((tris < 0) | (tris >= len(X))).any(1))[0])
             raise ValueError(f"triangle {t} {tris[t].tolist()} refers to a vertex that does not "
                              f"exist (valid indices 0..{len(X) - 1})")
+        key = np.sort(tris, axis=1)
+        _, first, counts = np.unique(key, axis=0, return_index=True, return_counts=True)
+        if (counts > 1).any():
+            dup = np.flatnonzero(counts > 1)
+            t = int(first[dup[0]])
+            raise ValueError(f"{int((counts[dup] - 1).sum())} duplicate triangle(s): triangle {t} "
+                             f"{tris[t].tolist()} appears {int(counts[dup[0]])} times (with any "
+                             f"vertex order); remove duplicates, e.g. with np.unique(np.sort(tris, "
+                             f"axis=1), axis=0)")
         area = triangle_areas(X, tris)
         scale = float(np.ptp(X[tris.ravel()], axis=0).max())
         bad = np.flatnonzero(np.abs(area) <= 1e-12 * scale**2)
@@ -314,21 +328,14 @@ class TriMesh:
 
 # ---------------------------------------------------------------------------------- masks
 def _as_float_image(image):
-    """(H, W[, C]) uint8 / float image → float64 in [0, 1]."""
-    a = np.asarray(image)
-    if a.dtype == bool:
+    """(H, W[, C]) uint8 / uint16 / float image → float64 in [0, 1] (:func:`physlab.image.
+    as_float`)."""
+    from physlab.image import as_float
+
+    if np.asarray(image).dtype == bool:
         raise ValueError("got a boolean array; foreground_mask expects an image — pass a "
                          "ready-made mask through mask_from_array(m) instead")
-    if a.ndim not in (2, 3) or (a.ndim == 3 and a.shape[2] not in (1, 3, 4)):
-        raise ValueError(f"image must have shape (H, W), (H, W, 3) or (H, W, 4), got {a.shape}")
-    if np.issubdtype(a.dtype, np.integer):
-        if a.min() < 0 or a.max() > 255:
-            raise ValueError(f"integer images must hold values in 0..255, got {a.min()}..{a.max()}")
-        return a.astype(np.float64) / 255.0
-    a = a.astype(np.float64)
-    if not np.all(np.isfinite(a)) or a.min() < 0 or a.max() > 1:
-        raise ValueError("float images must hold finite values in [0, 1]; divide uint8 data by 255")
-    return a
+    return as_float(image, dtype=np.float64)
 
 
 def _disk(radius):
@@ -697,8 +704,13 @@ def triangulate_polygon(polygon, max_area=None, min_angle=20.0, holes=None, poin
                          f"got {min_angle}")
     if max_area is None:
         max_area = default_max_area(abs(polygon_area(P)) - sum(abs(polygon_area(h)) for h in holes))
-    if not max_area > 0:
-        raise ValueError(f"max_area must be > 0 (units²), got {max_area}")
+    if not (np.isfinite(max_area) and max_area > 0):
+        raise ValueError(f"max_area must be a finite number > 0 (units²), got {max_area}")
+    region = abs(polygon_area(P)) - sum(abs(polygon_area(h)) for h in holes)
+    if region / max_area > MAX_TRIANGLES:
+        raise ValueError(f"max_area {max_area:g} would make about {2 * region / max_area:,.0f} "
+                         f"triangles for an area of {region:g} units², more than the limit of "
+                         f"{MAX_TRIANGLES:,}; choose max_area >= {region / MAX_TRIANGLES:.3g}")
 
     loops = [P] + holes
     sizes = [len(L) for L in loops]
@@ -752,7 +764,10 @@ def mesh_from_mask(mask, max_area=None, epsilon=2.0, min_angle=20.0, points=None
     ``min_angle`` cut off and corners below 60° chamfered, so that Triangle's angle bound
     holds everywhere) followed by :func:`triangulate_polygon`. The mesh covers the
     component's outer outline (holes are filled); Douglas–Peucker chords cut up to
-    ``epsilon`` px off convex parts (a 20-px disk loses ~7 % of its area at ε = 2).
+    ``epsilon`` px off convex parts (a 20-px disk loses ~7 % of its area at ε = 2). When the
+    outline's area differs from the mask's (holes filled) by more than ``AREA_TOLERANCE``
+    (10 %) — a thin stroke collapsed, the gap of a U bridged — ``epsilon`` is halved until it
+    does not (down to 0, the marching-squares outline itself).
 
     Parameters
     ----------
@@ -768,8 +783,16 @@ def mesh_from_mask(mask, max_area=None, epsilon=2.0, min_angle=20.0, points=None
     -------
     TriMesh with ``X`` in pixels ``(x, y)``, y down; positively oriented.
     """
-    poly = boundary_polygon(mask, epsilon=epsilon, min_corner_angle=min_angle,
-                            chamfer_angle=CHAMFER_ANGLE if min_angle > 0 else 0.0)
+    if not (np.isfinite(epsilon) and epsilon >= 0):
+        raise ValueError(f"epsilon must be a finite number >= 0 px, got {epsilon}")
+    comp = ndi.binary_fill_holes(_largest_component(mask_from_array(mask)))
+    target, eps = float(comp.sum()), float(epsilon)
+    while True:  # simplify no more than keeps the area of the mask (thin parts, narrow gaps)
+        poly = boundary_polygon(comp, epsilon=eps, min_corner_angle=min_angle,
+                                chamfer_angle=CHAMFER_ANGLE if min_angle > 0 else 0.0)
+        if abs(abs(polygon_area(poly)) - target) <= AREA_TOLERANCE * target or eps == 0:
+            break
+        eps = eps / 2 if eps > 0.1 else 0.0
     if max_area is None:  # pixel meshes: no need for triangles below MIN_PIXEL_AREA px²
         max_area = max(default_max_area(poly), MIN_PIXEL_AREA)
     return triangulate_polygon(poly, max_area=max_area, min_angle=min_angle, points=points)
@@ -783,11 +806,17 @@ def meshes_from_image(image, max_area=None, epsilon=2.0, min_angle=20.0, min_are
 
     Returns
     -------
-    list of TriMesh in pixel coordinates (empty if the image has no foreground).
+    list of TriMesh in pixel coordinates; ValueError "no foreground found" if there is none.
     """
     mask = foreground_mask(image, min_area=min_area)
+    comps = mask_components(mask, min_area=min_area)
+    if not comps:
+        raise ValueError(f"no foreground found in the image (no body of >= {min_area} px "
+                         f"darker than a light background or inside the alpha channel); is it "
+                         f"blank, uniform or a light drawing on a dark background (then pass "
+                         f"1 - image)?")
     return [mesh_from_mask(c, max_area=max_area, epsilon=epsilon, min_angle=min_angle)
-            for c in mask_components(mask, min_area=min_area)]
+            for c in comps]
 
 
 # ---------------------------------------------------------------------------------- builders

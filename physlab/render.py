@@ -69,28 +69,11 @@ _LUMA = np.array([0.2125, 0.7154, 0.0721], np.float32)  # Rec. 709, as skimage.c
 
 # --------------------------------------------------------------------------- input checks
 def _as_float_image(image, name="image"):
-    """(H, W) / (H, W, 1|3|4) uint8 or float in [0, 1] -> float32 (H, W, 4) straight RGBA."""
-    a = np.asarray(image)
-    if a.ndim == 2:
-        a = a[:, :, None]
-    if a.ndim != 3 or a.shape[2] not in (1, 3, 4) or a.shape[0] == 0 or a.shape[1] == 0:
-        raise ValueError(f"{name} must have shape (H, W), (H, W, 3) or (H, W, 4), got {a.shape}")
-    if a.dtype == np.uint8:
-        f = a.astype(np.float32) * np.float32(1 / 255)
-    elif np.issubdtype(a.dtype, np.floating) or a.dtype == bool:
-        f = a.astype(np.float32)
-        if f.size and not (np.isfinite(f).all() and f.min() >= -1e-6 and f.max() <= 1 + 1e-6):
-            raise ValueError(
-                f"{name} floats must lie in [0, 1], got range [{np.nanmin(f):g}, {np.nanmax(f):g}]"
-                " (scale 0..255 data by 1/255, or pass uint8)")
-        f = np.clip(f, 0.0, 1.0)
-    else:
-        raise ValueError(f"{name} must be uint8 or float in [0, 1], got dtype {a.dtype}")
-    if f.shape[2] == 1:
-        f = np.repeat(f, 3, axis=2)
-    if f.shape[2] == 3:
-        f = np.concatenate([f, np.ones(f.shape[:2] + (1,), np.float32)], axis=2)
-    return f
+    """(H, W) / (H, W, 1|3|4) uint8, uint16 or float in [0, 1] -> float32 (H, W, 4) straight
+    RGBA (:func:`physlab.image.as_float`)."""
+    from physlab.image import as_float
+
+    return as_float(image, name, channels=4)
 
 
 def _check_points(P, name, n=None):

@@ -151,3 +151,133 @@ def test_16_bit_and_bool_frames_are_converted_by_range(tmp_path):
     b = np.zeros((1, 4, 4, 3), bool)
     b[0, 0, 0] = True
     assert render._frames_uint8(b)[0, 0, 0, 0] == 255 and render._frames_uint8(b).max() == 255
+
+
+# ----------------------------------------------------------------------------- images
+from physlab import mesh as M  # noqa: E402
+from physlab.image import as_float, over_white, read_image, to_uint8  # noqa: E402
+
+
+def _disk_image(dtype=np.uint8, size=64, r=20):
+    yy, xx = np.mgrid[:size, :size]
+    ink = np.hypot(xx - size / 2, yy - size / 2) < r
+    img = np.where(ink[..., None], 0.1, 1.0) * np.ones(3)
+    if dtype == np.uint16:
+        return (img * 65535).astype(np.uint16), ink
+    return (img * 255).astype(np.uint8), ink
+
+
+def test_a_16_bit_image_is_read_by_range_not_wrapped(tmp_path):
+    import imageio.v3 as iio
+
+    img16, ink = _disk_image(np.uint16)
+    img16 = img16[..., 0]                          # a 16-bit grey PNG (Pillow writes I;16)
+    path = tmp_path / "d16.png"
+    iio.imwrite(path, img16)
+    back = read_image(path)
+    assert back.dtype == np.uint16
+    m = M.foreground_mask(back, dilate_radius=0)
+    iou = (m & ink).sum() / (m | ink).sum()
+    assert iou > 0.95, iou                    # wrapped by astype(uint8) it was 0.25
+    img8, _ = _disk_image(np.uint8)
+    assert np.array_equal(M.foreground_mask(back), M.foreground_mask(img8[..., 0]))
+    assert np.array_equal(to_uint8(img16), (img16 // 257).astype(np.uint8))
+
+
+BLACK = np.zeros((40, 40, 3), np.uint8)
+WHITE = np.full((40, 40, 3), 255, np.uint8)
+
+
+@pytest.mark.parametrize("call, exc, match", [
+    (lambda: M.meshes_from_image(BLACK), ValueError, "no foreground found"),
+    (lambda: M.meshes_from_image(WHITE), ValueError, "no foreground found"),
+    (lambda: M.meshes_from_image(np.full((40, 40, 3), 0.5)), ValueError, "no foreground found"),
+    (lambda: M.foreground_mask(np.zeros((0, 0, 3), np.uint8)), ValueError, "empty or too small"),
+    (lambda: M.foreground_mask(np.zeros((5, 5, 2), np.uint8)), ValueError, r"shape \(H, W\)"),
+    (lambda: M.foreground_mask(np.zeros((5, 5), np.int64)), ValueError, "dtype int64"),
+    (lambda: M.foreground_mask(np.full((5, 5), np.nan)), ValueError, "NaN or inf"),
+    (lambda: M.foreground_mask(np.full((5, 5), 3.0)), ValueError, r"\[0, 1\]"),
+    (lambda: M.foreground_mask(np.zeros((5, 5), bool)), ValueError, "mask_from_array"),
+    (lambda: M.mesh_from_mask(np.zeros((9, 9), bool)), ValueError, "mask is empty"),
+    (lambda: M.mesh_from_mask(np.ones((9, 9), bool), epsilon=-1), ValueError, "epsilon"),
+    (lambda: M.mesh_from_mask(np.ones((9, 9), bool), epsilon=float("nan")), ValueError,
+     "epsilon"),
+    (lambda: as_float(np.zeros((4, 4, 3)), channels=5), ValueError, "channels must be"),
+    (lambda: as_float(np.zeros((4, 4, 3), np.complex64), "key0"), ValueError, "key0 must be"),
+    (lambda: over_white(np.zeros((4, 4, 7))), ValueError, r"shape \(H, W\)"),
+    (lambda: read_image("/nonexistent/x.png"), FileNotFoundError, "does not exist"),
+])
+def test_image_and_mask_inputs(call, exc, match):
+    with pytest.raises(exc, match=match):
+        call()
+
+
+def test_read_image_names_a_corrupt_file(tmp_path):
+    p = tmp_path / "broken.png"
+    p.write_bytes(b"\x89PNG\r\n\x1a\n" + b"\0" * 20)
+    with pytest.raises(ValueError, match=r"broken\.png is not a readable image"):
+        read_image(p)
+
+
+# ----------------------------------------------------------------------------- meshes
+def _mesh_area(m):
+    return float(M.triangle_areas(m.X, m.tris).sum())
+
+
+@pytest.mark.parametrize("name, mask", [
+    ("U 3x28", lambda: _u_shape()),
+    ("1-px stroke of 103 px", lambda: _stroke()),
+])
+def test_meshes_keep_the_area_of_their_masks(name, mask):
+    m = mask()
+    area = _mesh_area(M.mesh_from_mask(m))
+    assert abs(area - m.sum()) <= 0.1 * m.sum(), (name, area, m.sum())
+
+
+def _u_shape():
+    m = np.zeros((40, 40), bool)
+    m[5:33, 5:8] = m[5:33, 12:15] = m[30:33, 5:15] = True
+    return m
+
+
+def _stroke():
+    m = np.zeros((20, 120), bool)
+    m[10, 5:108] = True
+    return m
+
+
+@pytest.mark.parametrize("tris, match", [
+    ([[0, 1, 2], [0, 1, 2]], "duplicate triangle"),
+    ([[0, 1, 2], [2, 0, 1]], "duplicate triangle"),          # same triangle, rotated
+    ([[0, 1, 2], [1, 0, 2]], "duplicate triangle"),          # same triangle, flipped
+    ([[0, 1, 3]], "does not exist"),
+    ([[0, 1]], r"shape \(T, 3\)"),
+    ([[0, 1, 1]], "degenerate"),
+])
+def test_trimesh_rejects_bad_triangles(tris, match):
+    X = np.array([[0.0, 0], [1, 0], [0, 1]])
+    with pytest.raises(ValueError, match=match):
+        M.TriMesh(X, np.array(tris))
+
+
+def test_triangle_count_is_bounded_before_calling_triangle():
+    square = np.array([[0.0, 0], [1000, 0], [1000, 1000], [0, 1000]])
+    with pytest.raises(ValueError, match=r"limit of 2,000,000; choose max_area >= 0\.5"):
+        M.triangulate_polygon(square, max_area=1e-3)
+    with pytest.raises(ValueError, match="max_area must be a finite number"):
+        M.triangulate_polygon(square, max_area=float("inf"))
+
+
+# ----------------------------------------------------------------------------- sizes a user types
+def test_inbetween_refuses_absurd_frame_counts_at_once():
+    from physlab.inbetween import Skeleton, inbetween
+
+    key = np.zeros((64, 64, 4))
+    sk = Skeleton(["a", "b"], [-1, 0], [[20.0, 20.0], [40.0, 40.0]])
+    t0 = time.perf_counter()
+    with pytest.raises(ValueError, match=r"n_frames = 10000000 is too many .* limit is 1000"):
+        inbetween(key, key, sk, sk, 10**7)
+    for bad in (1, 2.5, True, float("nan"), "9"):
+        with pytest.raises(ValueError, match="n_frames must be an integer"):
+            inbetween(key, key, sk, sk, bad)
+    assert time.perf_counter() - t0 < 5

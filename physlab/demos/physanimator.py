@@ -285,19 +285,18 @@ def animate_drawing(drawing="tree", duration=2.0, fps=24, E=1.5e5, nu=0.3, stren
     if drawing in datasets.SAMPLE_DRAWINGS:
         d = datasets.SAMPLE_DRAWINGS[drawing](size=size)
     else:
-        import imageio.v3 as iio
+        from physlab.image import as_float, read_image, to_uint8
 
-        img = iio.imread(drawing)
-        if img.ndim == 2:
-            img = np.stack([img] * 3, -1)
-        if img.shape[2] == 3:
-            img = np.concatenate([img, np.full(img.shape[:2] + (1,), 255, img.dtype)], -1)
+        if not Path(str(drawing)).suffix:
+            raise ValueError(f"drawing must be one of {sorted(datasets.SAMPLE_DRAWINGS)} or the "
+                             f"path of an image file, got {drawing!r}")
+        img = to_uint8(as_float(read_image(drawing, "drawing"), channels=4))   # 8/16-bit, grey
         scale = max_side / max(img.shape[:2])
         if scale < 1:
             import cv2
 
             img = cv2.resize(img, None, fx=scale, fy=scale, interpolation=cv2.INTER_AREA)
-        rgba = img.astype(np.uint8)
+        rgba = np.ascontiguousarray(img)
         rgba[..., 3] = np.where(foreground_mask(rgba[..., :3]), 255, 0)  # light background → alpha
         d = datasets.Drawing(name=Path(drawing).stem, image=rgba)
     body = drawing_body(d, E=E, nu=nu)

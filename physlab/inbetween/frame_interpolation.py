@@ -49,6 +49,8 @@ from typing import Protocol, runtime_checkable
 import cv2
 import numpy as np
 
+from physlab.image import as_float, over_white  # noqa: F401 - over_white re-exported
+
 __all__ = [
     "FrameInterpolator", "FlowInterpolator", "CrossDissolve",
     "as_image", "over_white", "flow_image",
@@ -71,57 +73,19 @@ def as_image(img, name="image"):
 
     Parameters
     ----------
-    img : (H, W), (H, W, 3) or (H, W, 4) array, uint8 or float in [0, 1]; RGBA is straight.
+    img : (H, W), (H, W, 3) or (H, W, 4) array, uint8, uint16 or float in [0, 1]; RGBA is
+        straight.
     name : str, used in error messages.
 
     Returns
     -------
-    (H, W, C) float32, C = 3 (grey and RGB) or 4 (RGBA).
+    (H, W, C) float32, C = 3 (grey and RGB) or 4 (RGBA) — :func:`physlab.image.as_float`.
 
     Raises
     ------
     ValueError for other shapes, NaN/inf, floats outside [0, 1], other dtypes.
     """
-    a = np.asarray(img)
-    if a.ndim == 2:
-        a = a[:, :, None]
-    if a.ndim != 3 or a.shape[2] not in (1, 3, 4) or a.shape[0] == 0 or a.shape[1] == 0:
-        raise ValueError(f"{name} must have shape (H, W), (H, W, 3) or (H, W, 4), "
-                         f"got {np.shape(img)}")
-    if a.dtype == np.uint8:
-        f = a.astype(np.float32) * np.float32(1 / 255)
-    elif np.issubdtype(a.dtype, np.floating) or a.dtype == bool:
-        f = np.asarray(a, dtype=np.float32)
-        if not np.isfinite(f).all():
-            raise ValueError(f"{name} contains NaN or inf")
-        if f.min() < -1e-6 or f.max() > 1 + 1e-6:
-            raise ValueError(f"{name} floats must lie in [0, 1], got range "
-                             f"[{f.min():g}, {f.max():g}] (scale 0..255 data by 1/255, or "
-                             f"pass uint8)")
-        f = np.clip(f, 0.0, 1.0)
-    else:
-        raise ValueError(f"{name} must be uint8 or float in [0, 1], got dtype {a.dtype}")
-    if f.shape[2] == 1:
-        f = np.repeat(f, 3, axis=2)
-    return f
-
-
-def over_white(img):
-    """Composite straight RGBA over a white background.
-
-    Parameters
-    ----------
-    img : (..., H, W, 3|4) float in [0, 1] (already validated).
-
-    Returns
-    -------
-    (..., H, W, 3) float32 ``rgb·a + (1 − a)``; RGB input is returned unchanged.
-    """
-    img = np.asarray(img, dtype=np.float32)
-    if img.shape[-1] == 3:
-        return img
-    a = img[..., 3:4]
-    return img[..., :3] * a + (1.0 - a)
+    return as_float(img, name, channels=3)
 
 
 def flow_image(img, silhouette_weight=0.25):

@@ -168,6 +168,11 @@ def _paper_colour(img, mask):
     return np.median(bg, axis=0) if len(bg) else np.ones(3, np.float32)
 
 
+#: Largest ``n_frames`` :func:`inbetween` accepts, and the largest memory for its frames.
+MAX_FRAMES = 1000
+MAX_BYTES = 4 * 2**30
+
+
 def inbetween(key0, key1, skeleton0, skeleton1, n_frames, animation=None, *, mask0=None,
               mask1=None, mask_predictor=None, max_area=None, deformer="symmetric_dirichlet",
               mu=MU, tol=TOL, max_iter=MAX_ITER, solver="lbfgs", interpolator=None,
@@ -219,9 +224,18 @@ def inbetween(key0, key1, skeleton0, skeleton1, n_frames, animation=None, *, mas
         raise ValueError(f"key0 and key1 must have the same size, got {k0.shape[:2]} and "
                          f"{k1.shape[:2]} (resize or pad one of them)")
     check_compatible(skeleton0, skeleton1)
+    if isinstance(n_frames, bool) or not isinstance(n_frames, (int, np.integer, float)) \
+            or not np.isfinite(n_frames) or int(n_frames) != n_frames or n_frames < 2:
+        raise ValueError(f"n_frames must be an integer ≥ 2 (both keys included), got "
+                         f"{n_frames!r}")
     n = int(n_frames)
-    if n != n_frames or n < 2:
-        raise ValueError(f"n_frames must be an integer ≥ 2 (both keys included), got {n_frames}")
+    # The two deformed sequences and the blended frames hold ~3 float32 RGBA images a frame.
+    need = 3 * n * k0.shape[0] * k0.shape[1] * 4 * 4
+    if n > MAX_FRAMES or need > MAX_BYTES:
+        raise ValueError(f"n_frames = {n} is too many for {k0.shape[1]}x{k0.shape[0]} keys: "
+                         f"the limit is {MAX_FRAMES} frames and {MAX_BYTES / 2**30:.0f} GiB of "
+                         f"frames (this needs {need / 2**30:.1f} GiB); ask for fewer frames or "
+                         f"smaller images")
     if blend not in BLENDS:
         raise ValueError(f"blend must be one of {BLENDS}, got {blend!r}")
     t = np.linspace(0.0, 1.0, n)

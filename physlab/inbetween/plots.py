@@ -3,21 +3,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from physlab.image import over_white  # noqa: F401 - part of this module's API
+
 from ..viz.plots import new_figure
 
 __all__ = ["over_white", "draw_skeleton", "draw_mesh", "plot_filmstrip", "plot_image_matrix",
            "plot_path", "contact_sheet"]
-
-
-def over_white(img):
-    """(H, W, 3) float image: RGBA composited over white (RGB passed through)."""
-    img = np.asarray(img, dtype=np.float32)
-    if img.dtype != np.float32 or img.max() > 1.0 + 1e-6:
-        img = img / 255.0
-    if img.shape[-1] == 4:
-        a = img[..., 3:4]
-        return img[..., :3] * a + (1.0 - a)
-    return img[..., :3]
 
 
 def draw_skeleton(ax, skeleton, color="tab:red", lw=1.5, ms=3, handles=False):

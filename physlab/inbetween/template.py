@@ -41,29 +41,13 @@ __all__ = ["Template", "build_template", "classical_foreground_mask", "as_rgba_f
 def as_rgba_float(image, name="image"):
     """``image`` as (H, W, 4) float32 straight RGBA in [0, 1] (RGB becomes opaque).
 
-    Accepts (H, W), (H, W, 3), (H, W, 4) uint8 or float in [0, 1]; raises ValueError
-    otherwise (wrong shape, NaN, values outside [0, 1]).
+    Accepts (H, W), (H, W, 3), (H, W, 4) uint8, uint16 or float in [0, 1]
+    (:func:`physlab.image.as_float`); raises ValueError otherwise (wrong shape, NaN, values
+    outside [0, 1], smaller than 2×2).
     """
-    img = np.asarray(image)
-    if img.ndim == 2:
-        img = np.repeat(img[..., None], 3, axis=2)
-    if img.ndim != 3 or img.shape[2] not in (3, 4) or min(img.shape[:2]) < 2:
-        raise ValueError(f"{name} must be an (H, W), (H, W, 3) or (H, W, 4) image, got shape "
-                         f"{img.shape}")
-    if img.dtype == np.uint8:
-        img = img.astype(np.float32) / 255.0
-    elif np.issubdtype(img.dtype, np.floating):
-        img = img.astype(np.float32)
-        if not np.all(np.isfinite(img)):
-            raise ValueError(f"{name} contains NaN or inf")
-        if img.min() < -1e-6 or img.max() > 1 + 1e-6:
-            raise ValueError(f"float {name} must be in [0, 1]; got [{img.min():g}, {img.max():g}]")
-        img = np.clip(img, 0.0, 1.0)
-    else:
-        raise ValueError(f"{name} must be uint8 or float, got {img.dtype}")
-    if img.shape[2] == 3:
-        img = np.concatenate([img, np.ones(img.shape[:2] + (1,), np.float32)], axis=2)
-    return img
+    from physlab.image import as_float
+
+    return as_float(image, name, channels=4, min_size=2)
 
 
 def classical_foreground_mask(image):
