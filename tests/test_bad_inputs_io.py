@@ -281,3 +281,45 @@ def test_inbetween_refuses_absurd_frame_counts_at_once():
         with pytest.raises(ValueError, match="n_frames must be an integer"):
             inbetween(key, key, sk, sk, bad)
     assert time.perf_counter() - t0 < 5
+
+
+# ----------------------------------------------------------------------------- the command
+@pytest.mark.parametrize("args, match", [
+    (["animate", "--out", "a.avi"], r"--out a\.avi: cannot write \.avi; use one of \.gif, \.mp4"),
+    (["animate", "--out", "noext"], r"cannot write a file without extension"),
+    (["animate", "--control-out", "c.png"], r"--control-out c\.png: cannot write \.png"),
+    (["animate", "--duration", "-1"], r"--duration must be in \(0, 60\] seconds"),
+    (["animate", "--duration", "1e9"], r"--duration must be in"),
+    (["animate", "--fps", "0"], r"--fps must be in 1\.\.120"),
+    (["animate", "--fps", "abc"], r"argument --fps: invalid int value: 'abc'"),
+    (["animate", "--drawing", "/nonexistent/x.png"], r"drawing file /nonexistent/x\.png does not"),
+    (["animate", "--drawing", "dragon"], r"drawing must be one of \['ball'"),
+    (["reproduce", "--lessons", "99"], r"no lesson matches \['99'\]"),
+    (["execute", "/nonexistent.ipynb"], r"no notebook at /nonexistent\.ipynb"),
+    (["bogus"], r"argument cmd: invalid choice: 'bogus'"),
+    ([], r"the following arguments are required: cmd"),
+])
+def test_physlab_command_prints_one_line_and_exits_2(args, match, capsys, tmp_path,
+                                                     monkeypatch):
+    from physlab import cli
+
+    monkeypatch.chdir(tmp_path)
+    try:
+        status = cli.main(args)
+    except SystemExit as e:                       # argparse's own errors
+        status = e.code
+    err = capsys.readouterr().err.strip().splitlines()
+    assert status == 2 and len(err) == 1, err
+    assert err[0].startswith("physlab: error: ")
+    import re
+    assert re.search(match, err[0]), err[0]
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_debug_shows_the_traceback():
+    from physlab import cli
+
+    with pytest.raises(ValueError, match="cannot write .avi"):
+        cli.main(["--debug", "animate", "--out", "a.avi"])
+    with pytest.raises(ValueError, match="cannot write .avi"):
+        cli.main(["animate", "--debug", "--out", "a.avi"])

@@ -301,7 +301,9 @@ def animated_drawing_inbetween(name, motion=None, t0=None, t1=None, n_frames=11,
 
 
 def _parser():
-    p = argparse.ArgumentParser(
+    from physlab._cli import Parser
+
+    p = Parser(
         prog="python -m physlab.inbetween.evaluate",
         description="Ground-truth inbetweening benchmark (procedural cartoon characters): "
                     "cross-dissolve, flow interpolation, physlab (diagonal blend), physlab "
@@ -370,4 +372,6 @@ def main(argv=None):
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    from physlab._cli import guard
+
+    sys.exit(guard("python -m physlab.inbetween.evaluate", main))

@@ -55,6 +55,24 @@ _CHANNELS = {c.lower(): c for c in (
 CMU_SCALE = (1.0 / 0.45) * 2.54 / 100
 
 
+#: Deepest joint hierarchy accepted (a chain this long is no skeleton; deeper would exhaust
+#: Python's recursion in the parser and writer).
+MAX_DEPTH = 256
+#: Accepted ``Frame Time`` range (s): 10 kHz .. one frame a minute.
+FRAME_TIME_RANGE = (1e-4, 60.0)
+#: Largest number of frames :func:`resample_local` produces.
+MAX_RESAMPLED_FRAMES = 2_000_000
+
+
+def _depths(parents):
+    """(J,) depth of every joint (roots 0) of a parents-before-children array."""
+    d = np.zeros(len(parents), dtype=int)
+    for j, p in enumerate(parents):
+        if p >= 0:
+            d[j] = d[p] + 1
+    return d
+
+
 def _channel_columns(channels):
     """Start column of each joint's channels in the motion matrix, and the total count C."""
     counts = [len(c) for c in channels]
@@ -108,11 +126,30 @@ class BVHMotion:
                 canon.append(_CHANNELS[str(c).lower()])
             channels.append(canon)
         self.channels = channels
-        if not self.frame_time > 0:
-            raise ValueError(f"frame_time must be > 0 s, got {self.frame_time}")
+        lo, hi = FRAME_TIME_RANGE
+        if not (isinstance(self.frame_time, (int, float, np.number))
+                and lo <= self.frame_time <= hi):
+            raise ValueError(f"frame_time must be in [{lo:g}, {hi:g}] s, got {self.frame_time}")
         self.frame_time = float(self.frame_time)
+        if J and _depths(self.parents).max() > MAX_DEPTH:
+            raise ValueError(f"the hierarchy is {_depths(self.parents).max() + 1} joints deep, "
+                             f"more than the {MAX_DEPTH + 1} physlab reads")
+        if not np.all(np.isfinite(self.offsets)):
+            j = int(np.flatnonzero(~np.isfinite(self.offsets).all(1))[0])
+            raise ValueError(f"joint {self.names[j]!r} has a non-finite OFFSET "
+                             f"{self.offsets[j].tolist()}")
         _, C = _channel_columns(self.channels)
-        self.motion = np.asarray(self.motion, dtype=float).reshape(-1, C)
+        motion = np.asarray(self.motion, dtype=float)
+        if motion.ndim == 1 and motion.size == 0:
+            motion = motion.reshape(0, C)
+        if motion.ndim != 2 or motion.shape[1] != C:
+            raise ValueError(f"motion must have shape (T, {C}) — one column per channel of the "
+                             f"hierarchy — got {motion.shape}")
+        if not np.all(np.isfinite(motion)):
+            t, c = np.argwhere(~np.isfinite(motion))[0]
+            raise ValueError(f"motion holds NaN or inf (first at frame {t}, channel column "
+                             f"{c}); fix the data before using or writing it")
+        self.motion = motion
 
     @property
     def n_frames(self):
@@ -224,13 +261,20 @@ class _Parser:
     def number(self, what, kind=float):
         tok, lineno = self.next(what)
         try:
-            return kind(tok)
+            v = kind(tok)
         except ValueError:
             raise self.error(f"expected {what}, got {tok!r}", lineno) from None
+        if not np.isfinite(v):
+            raise self.error(f"{what} must be a finite number, got {tok!r}", lineno)
+        return v
 
-    def joint(self, parent):
+    def joint(self, parent, depth=0):
         """Parse a ROOT/JOINT block after its keyword; returns nothing, appends to lists."""
         kw_line = self.tokens[self.i - 1][1]
+        if depth > MAX_DEPTH:
+            raise self.error(f"the hierarchy is more than {MAX_DEPTH + 1} joints deep; "
+                             f"physlab reads at most {MAX_DEPTH + 1} (is a '}}' missing?)",
+                             kw_line)
         name_parts = []
         while (self.i < len(self.tokens) and self.tokens[self.i][1] == kw_line
                and self.tokens[self.i][0] not in "{}"):
@@ -260,7 +304,7 @@ class _Parser:
                     chans.append(_CHANNELS[c.lower()])
                 self.channels[j] = chans
             elif key == "JOINT":
-                self.joint(j)
+                self.joint(j, depth + 1)
             elif key == "END":
                 self.expect("Site")
                 self.expect("{")
@@ -342,9 +386,13 @@ def read_bvh(path, end_sites=True):
 
     n_frames = header(motion_at + 1, _FRAMES, "Frames:", int)
     frame_time = header(motion_at + 2, _FRAME_TIME, "Frame Time:", float)
-    if n_frames < 0 or not frame_time > 0:
-        raise ValueError(f"{path}: line {numbered[motion_at + 1][0]}: need Frames >= 0 and "
-                         f"Frame Time > 0, got {n_frames} and {frame_time}")
+    lo, hi = FRAME_TIME_RANGE
+    if n_frames < 0:
+        raise ValueError(f"{path}: line {numbered[motion_at + 1][0]}: Frames must be >= 0, got "
+                         f"{n_frames}")
+    if not lo <= frame_time <= hi:                      # NaN fails this too
+        raise ValueError(f"{path}: line {numbered[motion_at + 2][0]}: Frame Time must be in "
+                         f"[{lo:g}, {hi:g}] s (e.g. 0.0333333 for 30 fps), got {frame_time}")
     data = numbered[motion_at + 3:]
     if C == 0:
         data, motion = [], np.zeros((n_frames, 0))
@@ -369,6 +417,11 @@ def read_bvh(path, end_sites=True):
                             from None
             raise
         motion = motion.reshape(n_frames, C)
+        bad = ~np.isfinite(motion)
+        if bad.any():
+            t, c = np.argwhere(bad)[0]
+            raise ValueError(f"{path}: line {data[t][0]}: value {c + 1} is "
+                             f"{data[t][1].split()[c]!r}; frame values must be finite numbers")
     return BVHMotion(names=parser.names, parents=np.array(parser.parents, dtype=int),
                      offsets=np.array(parser.offsets, dtype=float).reshape(-1, 3),
                      channels=parser.channels, frame_time=frame_time, motion=motion)
@@ -400,6 +453,8 @@ def write_bvh(path, motion):
     motion : :class:`BVHMotion`.
     """
     m = motion
+    if not (np.all(np.isfinite(m.motion)) and np.all(np.isfinite(m.offsets))):
+        raise ValueError(f"cannot write {path}: the motion or the offsets hold NaN or inf")
     children = [[] for _ in m.names]
     for j, p in enumerate(m.parents):
         if p >= 0:
@@ -466,8 +521,8 @@ def resample_local(motion, fps):
     """
     from scipy.spatial.transform import Rotation
 
-    if not fps > 0:
-        raise ValueError(f"fps must be > 0, got {fps}")
+    if not (np.isfinite(fps) and fps > 0):
+        raise ValueError(f"fps must be a finite number > 0, got {fps}")
     T, J = motion.n_frames, motion.n_joints
     if T == 0:
         raise ValueError("the BVH clip has no frames")
@@ -475,6 +530,10 @@ def resample_local(motion, fps):
     if T == 1:
         return R, t
     n_new = int(np.floor(motion.duration * fps + 1e-6)) + 1
+    if n_new > MAX_RESAMPLED_FRAMES:
+        raise ValueError(f"resampling {motion.duration:g} s at {fps:g} fps would make {n_new:,} "
+                         f"frames, more than the limit of {MAX_RESAMPLED_FRAMES:,}; check the "
+                         f"file's Frame Time or use a lower fps")
     u = np.arange(n_new) / fps / motion.frame_time          # (T',) source frame coordinate
     i0 = np.clip(np.floor(u).astype(int), 0, T - 2)
     w = np.clip(u - i0, 0.0, 1.0)

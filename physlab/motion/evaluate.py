@@ -448,7 +448,9 @@ def format_adherence(res):
 
 
 def _parser():
-    p = argparse.ArgumentParser(
+    from physlab._cli import Parser
+
+    p = Parser(
         prog="python -m physlab.motion.evaluate",
         description="Held-out Bandai-Namco evaluation of the motion generator (Sketch2Anim "
                     "Table 2 analogue): real clips, text only, keypose + trajectory, single "
@@ -501,5 +503,6 @@ def main(argv=None):
 
 
 if __name__ == "__main__":
-    main()
-    sys.exit(0)
+    from physlab._cli import guard
+
+    sys.exit(guard("python -m physlab.motion.evaluate", main))

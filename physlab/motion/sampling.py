@@ -65,6 +65,8 @@ DEFAULT_CHECKPOINT = Path(__file__).resolve().parents[2] / "data" / "motion" / \
 N_FRAMES = 40
 
 KEYPOSE_AT = ("first", "last")
+#: Largest classifier-free guidance scale accepted (the paper uses 7.5).
+MAX_GUIDANCE = 100.0
 METHODS = ("ddim", "ddpm")
 
 
@@ -316,9 +318,10 @@ class Generator:
         if keypose_at not in KEYPOSE_AT:
             raise ValueError(f"keypose_at must be 'first' or 'last', got {keypose_at!r}")
         if (isinstance(guidance_scale, bool) or not isinstance(guidance_scale, (int, float))
-                or not math.isfinite(guidance_scale) or guidance_scale < 0):
-            raise ValueError(f"guidance_scale must be a finite number >= 0 (Sketch2Anim uses "
-                             f"7.5; 0 = no text guidance), got {guidance_scale!r}")
+                or not math.isfinite(guidance_scale) or not 0 <= guidance_scale <= MAX_GUIDANCE):
+            raise ValueError(f"guidance_scale must be a number in [0, {MAX_GUIDANCE:g}] "
+                             f"(Sketch2Anim uses 7.5; 0 = no text guidance; far larger scales "
+                             f"overflow the features), got {guidance_scale!r}")
         if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps < 1:
             raise ValueError(f"steps must be an integer >= 1 (e.g. 50 DDIM steps), got "
                              f"{steps!r}")
@@ -326,6 +329,9 @@ class Generator:
             raise ValueError(f"method must be 'ddim' or 'ddpm', got {method!r}")
         if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)):
             raise TypeError(f"seed must be an int, got {seed!r}")
+        if not 0 <= seed < 2**63:
+            raise ValueError(f"seed must be an integer in [0, 2**63) (torch's seed range), got "
+                             f"{seed}")
         if (isinstance(inference_guidance, bool)
                 or not isinstance(inference_guidance, (int, np.integer)) or inference_guidance < 0):
             raise ValueError(f"inference_guidance must be an integer >= 0 (L-BFGS iterations per "

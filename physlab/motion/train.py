@@ -175,8 +175,30 @@ class TrainConfig:
         for name in ("steps", "batch_size", "checkpoint_every", "min_t_r", "window_stride"):
             if getattr(self, name) < 1:
                 raise ValueError(f"{name} must be >= 1, got {getattr(self, name)}")
-        if not self.lr > 0:
-            raise ValueError(f"lr must be > 0, got {self.lr}")
+        for name in ("lr", "min_lr", "weight_decay", "grad_clip", "lambda_tr", "lambda_key",
+                     "lambda_vel", "warmup", "seed", "num_threads", "max_clips",
+                     "cond_drop_prob"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+                raise ValueError(f"{name} must be a finite number, got {v!r}")
+        if not 0 < self.lr <= 1:
+            raise ValueError(f"lr must be in (0, 1] (AdamW; the default is 2e-4), got {self.lr}")
+        if not 0 <= self.min_lr <= self.lr:
+            raise ValueError(f"min_lr must be in [0, lr = {self.lr}], got {self.min_lr}")
+        for name in ("weight_decay", "grad_clip", "lambda_tr", "lambda_key", "lambda_vel",
+                     "warmup", "max_clips"):
+            if getattr(self, name) < 0:
+                raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
+        if not 0 <= self.seed < 2**63:
+            raise ValueError(f"seed must be an integer in [0, 2**63), got {self.seed}")
+        if not 0 <= self.num_threads <= 256:
+            raise ValueError(f"num_threads must be in 0..256 (0 = automatic), got "
+                             f"{self.num_threads}")
+        if not math.isfinite(self.cond_drop_prob) or self.cond_drop_prob > 1:
+            raise ValueError(f"cond_drop_prob must be <= 1 (< 0: the model config's value), got "
+                             f"{self.cond_drop_prob}")
+        if self.steps > 10_000_000:
+            raise ValueError(f"steps must be <= 10,000,000, got {self.steps}")
         if self.stage == "control" and not self.base_ckpt:
             raise ValueError("stage 'control' needs --base-ckpt <checkpoint of stage 'base'>")
 
@@ -695,7 +717,9 @@ def train(**kwargs):
 
 
 def _parser():
-    p = argparse.ArgumentParser(prog="python -m physlab.motion.train",
+    from physlab._cli import Parser
+
+    p = Parser(prog="python -m physlab.motion.train",
                                 description=__doc__.split("\n\n")[0])
     for cls in (TrainConfig, DenoiserConfig):
         group = p.add_argument_group(cls.__name__)
@@ -716,6 +740,7 @@ def _parser():
 
 def main(argv=None):
     args = vars(_parser().parse_args(argv))
+    args.pop("debug", None)
     export = args.pop("export")
     kwargs = {k: v for k, v in args.items() if v is not None}
     res = train(**kwargs)
@@ -737,4 +762,6 @@ def main(argv=None):
 
 
 if __name__ == "__main__":
-    main()
+    from physlab._cli import guard
+
+    sys.exit(guard("python -m physlab.motion.train", main))
