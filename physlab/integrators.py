@@ -59,13 +59,21 @@ class ConvergenceError(RuntimeError):
         self.residuals = list(residuals)
 
 
+#: :func:`simulate` raises :class:`SimulationDiverged` when a particle gets this many times
+#: farther from its start than the initial velocities and accelerations can take it.
+GROWTH_LIMIT = 1e3
+#: Largest ``n_steps`` :func:`simulate` accepts.
+MAX_STEPS = 50_000_000
+
+
 class SimulationDiverged(FloatingPointError):
-    """The state became non-finite (the simulation blew up).
+    """The simulation blew up: the state became non-finite, or (for :func:`simulate`) the
+    positions grew far beyond anything the initial state and forces can explain.
 
     Attributes
     ----------
     step : int
-        Index of the step whose result was not finite (``1`` = the first step).
+        Index of the step whose result was not finite or too large (``1`` = the first step).
     t : float
         Time at the start of that step.
     dt : float
@@ -74,8 +82,10 @@ class SimulationDiverged(FloatingPointError):
         The trajectory up to and including the last finite state, for plotting.
     """
 
-    def __init__(self, step: int, t: float, dt: float, method: str, result):
+    def __init__(self, step: int, t: float, dt: float, method: str, result,
+                 reason="the state is no longer finite"):
         self.step, self.t, self.dt, self.method, self.result = step, t, dt, method, result
+        self.reason = reason
         hint = (
             "use a smaller dt or an implicit method ('implicit_euler')"
             if method not in IMPLICIT_METHODS
@@ -83,7 +93,7 @@ class SimulationDiverged(FloatingPointError):
         )
         super().__init__(
             f"simulation blew up at step {step} (t = {t:.6g}, dt = {dt:g}, method '{method}'): "
-            f"the state is no longer finite; {hint}"
+            f"{reason}; {hint}"
         )
 
 
@@ -677,9 +687,13 @@ def simulate(
     """
     _check_method(method, MECHANICAL_METHODS)
     dt = _check_dt(dt)
-    if int(n_steps) != n_steps or n_steps < 0:
+    if isinstance(n_steps, bool) or not isinstance(n_steps, (int, np.integer, float)) \
+            or not np.isfinite(n_steps) or int(n_steps) != n_steps or n_steps < 0:
         raise ValueError(f"n_steps must be a non-negative integer, got {n_steps!r}")
     n_steps = int(n_steps)
+    if n_steps > MAX_STEPS:
+        raise ValueError(f"n_steps = {n_steps:,} is more than the limit of {MAX_STEPS:,}; "
+                         f"use a larger dt or a shorter run")
     if newton not in ("full", "baraff_witkin"):
         raise ValueError(f"unknown newton variant {newton!r}; valid: full, baraff_witkin")
     m = np.asarray(system.mass, dtype=float).reshape(-1)
@@ -702,6 +716,15 @@ def simulate(
     inv_m[free] = 1.0 / m[free]  # pinned particles: infinite mass
     M_flat = np.repeat(m, d)
     pinned_dofs = (fixed[:, None] * d + np.arange(d)).reshape(-1)
+    # Growth bound: how far a particle can get from the start at time τ with the initial
+    # velocities and accelerations, R(τ) = L + |v0| τ + |a0| τ² / 2 (L: scene extent). A
+    # blow-up grows exponentially and passes GROWTH_LIMIT · R within a few steps; motion
+    # that is physical stays far below it (free fall follows R exactly).
+    with np.errstate(all="ignore"):
+        a0 = np.asarray(system.force(x0, v0, t0), dtype=float)[free] * (1.0 / m[free])[:, None]
+    L = max(float(np.ptp(x0, axis=0).max()) if n > 1 else 0.0, float(np.abs(x0).max()), 1e-3)
+    v0_max = float(np.abs(v0).max())
+    a0_max = float(np.abs(a0).max()) if a0.size and np.all(np.isfinite(a0)) else 0.0
 
     if method == "implicit_euler" and not isinstance(solver, LinearSolver):
         solver = LinearSolver(solver)
@@ -748,11 +771,18 @@ def simulate(
                 project(tk + dt, xn, vn)  # kinematic constraints, contacts: in place
             vn[fixed] = 0.0
             xn[fixed] = x0[fixed]
-        if not (np.all(np.isfinite(xn)) and np.all(np.isfinite(vn))):
+        reach = GROWTH_LIMIT * (L + v0_max * (tk + dt - t0) + 0.5 * a0_max * (tk + dt - t0) ** 2)
+        finite = np.all(np.isfinite(xn)) and np.all(np.isfinite(vn))
+        grown = finite and float(np.abs(xn - x0).max(initial=0.0)) > reach
+        if not finite or grown:
             kept = k // save_every + 1
             partial = SimulationResult(t[:kept].copy(), X[:kept].copy(), V[:kept].copy(),
                                        method, dt, newton_hist)
-            raise SimulationDiverged(k + 1, tk, dt, method, partial)
+            reason = "the state is no longer finite" if not finite else (
+                f"a particle moved {float(np.abs(xn - x0).max()):.3g} from its start, more "
+                f"than {GROWTH_LIMIT:g}× what the initial velocities and forces allow "
+                f"({reach / GROWTH_LIMIT:.3g})")
+            raise SimulationDiverged(k + 1, tk, dt, method, partial, reason)
         v_prev, x, v = v, xn, vn
         if (k + 1) % save_every == 0:
             X[(k + 1) // save_every], V[(k + 1) // save_every] = x, v

@@ -182,7 +182,8 @@ def test_pinned_particles_never_move(method):
     c = springs.cloth_grid(6, 5, k=500.0)
     x0, v0 = c.rest_state()
     v0 += 0.3
-    r = simulate(c, x0, v0, 0.002, 200, method)
+    # 100 steps: explicit Euler is unstable on this cloth and blows up (detected) after ~120
+    r = simulate(c, x0, v0, 0.002, 100, method)
     assert np.all(r.x[:, c.fixed] == x0[c.fixed])
     assert np.all(r.v[:, c.fixed] == 0.0)
     free = np.setdiff1d(np.arange(c.n), c.fixed)
@@ -248,11 +249,13 @@ def test_energy_behaviour_of_the_three_mechanical_methods():
     x0, v0 = c.rest_state()
     E0 = c.energy(x0, v0)
     E = {m: np.array([c.energy(x, v) for x, v in zip(r.x, r.v)])
-         for m in ("explicit_euler", "semi_implicit_euler")
-         for r in [simulate(c, x0, v0, 0.002, 5000, m)]}
+         for m, n in (("explicit_euler", 400), ("semi_implicit_euler", 5000))
+         for r in [simulate(c, x0, v0, 0.002, n, m)]}
     swing = E0 - c.potential_energy(c.X + (0, -0.5))  # scale of the energy exchanged
     assert np.abs(E["semi_implicit_euler"] - E0).max() < 0.05 * abs(swing)  # bounded band
     assert E["explicit_euler"][-1] - E0 > 0.5 * abs(swing)  # explicit Euler gains energy
+    with pytest.raises(SimulationDiverged, match=r"step \d+ .*moved .* from its start"):
+        simulate(c, x0, v0, 0.002, 5000, "explicit_euler")    # ... until it blows up
     damped = springs.chain(10, k=300.0, total_mass=1.0, damping=0.2, spring_damping=0.5)
     r = simulate(damped, x0, v0, 0.01, 600, "implicit_euler")
     Ed = np.array([damped.energy(x, v) for x, v in zip(r.x, r.v)])
