@@ -48,6 +48,9 @@ def lame_parameters(E, nu, plane="strain"):
     """
     E = np.asarray(E, dtype=float)
     nu = np.asarray(nu, dtype=float)
+    if not (np.all(np.isfinite(E)) and np.all(np.isfinite(nu))):
+        raise ValueError(f"Young's modulus and Poisson ratio must be finite, got E = {E}, "
+                         f"nu = {nu}")
     if np.any(E <= 0):
         raise ValueError(f"Young's modulus must be > 0, got {E}")
     if np.any(nu <= -1) or np.any(nu >= 0.5):

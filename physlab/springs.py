@@ -23,6 +23,8 @@ between two variable end points splits its force equally and oppositely between 
 from __future__ import annotations
 
 import numpy as np
+
+from physlab import _check
 import scipy.sparse as sp
 
 __all__ = ["SpringSystem", "hanging_spring", "chain", "cloth_grid", "soft_box", "grid_edges"]
@@ -99,16 +101,16 @@ class SpringSystem:
             raise ValueError("free (not fixed) particles need a mass > 0")
         self.mass = mass
 
-        if damping < 0:
-            raise ValueError(f"damping must be >= 0, got {damping}")
-        self.damping = float(damping)
+        self.damping = _check.number(damping, "damping γ (1/s)", lo=0)
         if gravity is None:
             gravity = (0.0, -9.81) if d == 2 else (0.0, -9.81, 0.0)
         self.gravity = np.asarray(gravity, dtype=float).reshape(-1)
         if self.gravity.shape != (d,):
             raise ValueError(f"gravity must have {d} components for {d}-D particles, got {gravity!r}")
-        self.ground = None if ground is None else float(ground)
-        self.ground_stiffness = float(ground_stiffness)
+        if not np.all(np.isfinite(self.gravity)):
+            raise ValueError(f"gravity must be finite, got {gravity!r}")
+        self.ground = None if ground is None else _check.number(ground, "ground (height)")
+        self.ground_stiffness = _check.number(ground_stiffness, "ground_stiffness", lo=0)
         self._pattern = None
 
     @staticmethod

@@ -323,3 +323,50 @@ def test_debug_shows_the_traceback():
         cli.main(["--debug", "animate", "--out", "a.avi"])
     with pytest.raises(ValueError, match="cannot write .avi"):
         cli.main(["animate", "--debug", "--out", "a.avi"])
+
+
+# ----------------------------------------------------------------------------- mask -> mesh fuzzer
+from hypothesis import HealthCheck, given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+_SHAPES = st.lists(st.tuples(st.sampled_from(["disk", "bar", "line", "ring", "hole"]),
+                             st.integers(2, 38), st.integers(2, 38), st.integers(1, 14)),
+                   min_size=1, max_size=4)
+
+
+def _paint(shapes, size=40):
+    yy, xx = np.mgrid[:size, :size]
+    m = np.zeros((size, size), bool)
+    for kind, cx, cy, r in shapes:
+        d = np.hypot(xx - cx, yy - cy)
+        if kind == "disk":
+            m |= d <= r
+        elif kind == "bar":
+            m |= (abs(xx - cx) <= r) & (abs(yy - cy) <= 1)
+        elif kind == "line":
+            m |= (xx == cx) & (abs(yy - cy) <= r)
+        elif kind == "ring":
+            m |= (d <= r) & (d >= r - 1.5)
+        else:
+            m &= ~(d <= r / 2)
+    return m
+
+
+@settings(max_examples=150, deadline=None, derandomize=True,
+          suppress_health_check=[HealthCheck.too_slow])
+@given(_SHAPES)
+def test_mask_to_mesh_fuzz_keeps_the_area_or_says_why(shapes):
+    """Random blobs, thin strokes, rings and holes: the mesh of the largest component has its
+    area (holes filled) within 10 % (or 12 px² for tiny ones), or a clear ValueError."""
+    from scipy import ndimage as ndi
+
+    m = _paint(shapes)
+    try:
+        mesh = M.mesh_from_mask(m)
+    except ValueError as e:
+        assert "empty" in str(e) or "area" in str(e) or "polygon" in str(e), e
+        return
+    comp = ndi.binary_fill_holes(M._largest_component(M.mask_from_array(m)))
+    area, target = _mesh_area(mesh), float(comp.sum())
+    assert abs(area - target) <= max(0.1 * target, 12.0), (area, target)
+    assert len(np.unique(np.sort(mesh.tris, axis=1), axis=0)) == len(mesh.tris)

@@ -14,6 +14,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from physlab import _check
+
 __all__ = ["FixedRig", "WavyRig", "wavy_rig_position"]
 
 
@@ -32,6 +34,22 @@ class FixedRig:
     center: tuple | None = None
     radius: float | None = None
     vertices: tuple | None = None
+
+    def __post_init__(self):
+        kind = type(self).__name__
+        self.body = _check.number(self.body, f"{kind} body (index)", lo=0, integer=True)
+        if self.center is not None:
+            self.center = tuple(_check.vector(self.center, f"{kind} center"))
+        if self.radius is not None:
+            self.radius = _check.number(self.radius, f"{kind} radius (px)", lo=0, lo_open=True)
+        if self.vertices is not None:
+            v = np.asarray(self.vertices)
+            if v.ndim != 1 or (v.size and not np.issubdtype(v.dtype, np.integer)):
+                raise ValueError(f"{kind} vertices must be a list of vertex indices, got "
+                                 f"{self.vertices!r}")
+            self.vertices = tuple(int(i) for i in v)
+        if self.vertices is None and (self.center is None or self.radius is None):
+            raise ValueError(f"{kind} needs either vertices or center and radius")
 
     def select(self, X):
         """Indices (k,) of the rigged vertices of a body with rest positions ``X`` (n, 2)."""
@@ -70,8 +88,13 @@ class WavyRig(FixedRig):
     direction: tuple = (1.0, 0.0)
 
     def __post_init__(self):
-        if not np.linalg.norm(np.asarray(self.direction, dtype=float)) > 0:
+        super().__post_init__()
+        self.amplitude = _check.number(self.amplitude, "WavyRig amplitude (px)")
+        self.frequency = _check.number(self.frequency, "WavyRig frequency (rad/s)")
+        d = _check.vector(self.direction, "WavyRig direction")
+        if not np.linalg.norm(d) > 0:
             raise ValueError(f"wavy rig direction must be a non-zero vector, got {self.direction}")
+        self.direction = tuple(d)
 
     def offset(self, t):
         d = np.asarray(self.direction, dtype=float)

@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from physlab import _check
 from physlab._io import atomic_write_text
 from physlab.mesh import TriMesh
 
@@ -21,6 +22,9 @@ from .rigging import FixedRig, WavyRig
 from .strokes import EnergyStroke
 
 __all__ = ["Material", "Body", "Scene"]
+
+#: Largest canvas side (px) a scene may have.
+MAX_CANVAS = 16384
 
 
 @dataclass
@@ -33,8 +37,10 @@ class Material:
     rho: float = 1.0
 
     def __post_init__(self):
-        if not (self.E > 0 and self.rho > 0 and -1 < self.nu < 0.5):
-            raise ValueError(f"invalid material {self}: need E > 0, rho > 0, -1 < nu < 0.5")
+        self.E = _check.number(self.E, "Material E (Young's modulus)", lo=0, lo_open=True)
+        self.rho = _check.number(self.rho, "Material rho (density)", lo=0, lo_open=True)
+        self.nu = _check.number(self.nu, "Material nu (Poisson ratio)", lo=-1, hi=0.5,
+                                lo_open=True, hi_open=True)
 
 
 def _jsonable(obj):
@@ -57,7 +63,15 @@ def _encode_png(image):
 def _decode_png(text):
     import imageio.v3 as iio
 
-    return iio.imread(io.BytesIO(base64.b64decode(text)), extension=".png")
+    if not isinstance(text, str):
+        raise TypeError(f"texture must be a base64 PNG string, got {type(text).__name__}")
+    try:
+        img = iio.imread(io.BytesIO(base64.b64decode(text, validate=True)), extension=".png")
+    except Exception as e:  # noqa: BLE001 - base64 / PNG decoders raise many kinds
+        raise ValueError(f"texture is not a valid base64 PNG ({type(e).__name__})") from None
+    from physlab.image import as_float, to_uint8
+
+    return to_uint8(as_float(img, "texture", channels=4))      # 8/16-bit, grey or RGB
 
 
 @dataclass
@@ -81,8 +95,23 @@ class Body:
 
     def __post_init__(self):
         if not isinstance(self.mesh, TriMesh):
-            X, tris = self.mesh
+            try:
+                X, tris = self.mesh                          # an (X, tris) pair
+            except (TypeError, ValueError):
+                raise TypeError(f"Body mesh must be a physlab.mesh.TriMesh or an (X, tris) "
+                                f"pair, got {type(self.mesh).__name__}") from None
             self.mesh = TriMesh(np.asarray(X, float), np.asarray(tris))
+        if not isinstance(self.material, Material):
+            raise TypeError(f"Body material must be a Material, got "
+                            f"{type(self.material).__name__}")
+        self.offset = tuple(_check.vector(self.offset, "Body offset"))
+        self.velocity = tuple(_check.vector(self.velocity, "Body velocity"))
+        self.depth = _check.number(self.depth, "Body depth")
+        if self.texture is not None:
+            t = np.asarray(self.texture)
+            if t.ndim != 3 or t.shape[2] not in (3, 4) or t.dtype != np.uint8:
+                raise ValueError(f"Body texture must be an (H, W, 3|4) uint8 image, got shape "
+                                 f"{t.shape} and dtype {t.dtype}")
 
     @property
     def X_canvas(self):
@@ -96,12 +125,76 @@ class Body:
                     texture=None if self.texture is None else _encode_png(self.texture))
 
     @classmethod
-    def from_dict(cls, d):
-        return cls(mesh=TriMesh(np.asarray(d["X"], float), np.asarray(d["tris"], dtype=np.int64)),
-                   material=Material(**d["material"]),
-                   texture=None if d.get("texture") is None else _decode_png(d["texture"]),
-                   offset=tuple(d["offset"]), velocity=tuple(d["velocity"]), depth=d["depth"],
-                   name=d["name"])
+    def from_dict(cls, d, where="body"):
+        """Inverse of :meth:`to_dict`; ValueError naming the field (``where``) on bad data."""
+        d = _fields(d, where, required=("X", "tris"),
+                    optional=("name", "material", "offset", "velocity", "depth", "texture"))
+        mesh = _at(f"{where}.X/tris", lambda: TriMesh(_array(d["X"], float),
+                                                      _array(d["tris"], np.int64)))
+        mat = _fields(d.get("material", {}), f"{where}.material",
+                      optional=("E", "nu", "rho"))
+        kw = {k: d[k] for k in ("offset", "velocity", "depth", "name") if k in d}
+        tex = d.get("texture")
+        if tex is not None:
+            tex = _at(f"{where}.texture", lambda: _decode_png(tex))
+        return _at(where, lambda: cls(mesh=mesh, material=Material(**mat), texture=tex, **kw))
+
+
+def _array(value, dtype):
+    a = np.asarray(value)
+    if a.dtype == object:
+        raise ValueError("ragged or non-numeric list")
+    return a.astype(dtype)
+
+
+def _fields(d, where, required=(), optional=()):
+    """``d`` checked to be a JSON object with the ``required`` keys and no keys beyond
+    ``required + optional``."""
+    if not isinstance(d, dict):
+        raise ValueError(f"field {where} must be a JSON object, got {type(d).__name__}")
+    missing = [k for k in required if k not in d]
+    if missing:
+        raise ValueError(f"field {where} lacks {', '.join(repr(k) for k in missing)}")
+    unknown = sorted(set(d) - set(required) - set(optional))
+    if unknown:
+        raise ValueError(f"field {where} has unknown key(s) {', '.join(map(repr, unknown))}; "
+                         f"known: {', '.join(required + optional)}")
+    return d
+
+
+def _at(where, build):
+    """``build()``, its ValueError / TypeError / KeyError re-raised naming the field."""
+    try:
+        return build()
+    except (ValueError, TypeError, KeyError, IndexError) as e:
+        msg = str(e) if str(e).startswith("field ") else f"field {where}: {e}"
+        raise ValueError(msg) from None
+
+
+def _scene_text(text_or_path):
+    """``(source name, JSON text)`` of :meth:`Scene.from_json`'s argument: a path (str or
+    PathLike) or JSON text (a str that starts like JSON)."""
+    import os
+    from pathlib import Path
+
+    if isinstance(text_or_path, str):
+        head = text_or_path.lstrip()[:1]
+        if head in ("{", "[", '"') or "\n" in text_or_path or head.isdigit() \
+                or text_or_path.strip() in ("null", "true", "false"):
+            return "scene JSON", text_or_path
+        path = Path(text_or_path)
+    elif isinstance(text_or_path, os.PathLike):
+        path = Path(text_or_path)
+    else:
+        raise TypeError(f"Scene.from_json takes JSON text or a file path, got "
+                        f"{type(text_or_path).__name__}")
+    if not path.is_file():
+        raise FileNotFoundError(f"no scene file {path} (pass a path to a .json file written by "
+                                f"Scene.to_json, or the JSON text itself)")
+    try:
+        return str(path), path.read_text(encoding="utf-8")
+    except UnicodeDecodeError:
+        raise ValueError(f"{path}: not a text file; scene files are JSON") from None
 
 
 @dataclass
@@ -131,6 +224,35 @@ class Scene:
     def __post_init__(self):
         if not self.bodies:
             raise ValueError("a scene needs at least one body")
+        for i, b in enumerate(self.bodies):
+            if not isinstance(b, Body):
+                raise TypeError(f"bodies[{i}] must be a Body, got {type(b).__name__}")
+        for i, st in enumerate(self.strokes):
+            if not isinstance(st, EnergyStroke):
+                raise TypeError(f"strokes[{i}] must be an EnergyStroke, got {type(st).__name__}")
+        for i, r in enumerate(self.rigs):
+            if not isinstance(r, FixedRig):
+                raise TypeError(f"rigs[{i}] must be a FixedRig or WavyRig, got "
+                                f"{type(r).__name__}")
+        self.gravity = tuple(_check.vector(self.gravity, "gravity"))
+        if self.ground is not None:
+            self.ground = _check.number(self.ground, "ground")
+        if self.walls is not None:
+            lo, hi = _check.vector(self.walls, "walls")
+            if not lo < hi:
+                raise ValueError(f"walls must be (x_min, x_max) with x_min < x_max, got "
+                                 f"{self.walls!r}")
+            self.walls = (float(lo), float(hi))
+        if not isinstance(self.collisions, (bool, np.bool_)):
+            raise TypeError(f"collisions must be True or False, got {self.collisions!r}")
+        self.restitution = _check.number(self.restitution, "restitution", lo=0, hi=1)
+        self.friction = _check.number(self.friction, "friction", lo=0)
+        self.damping = _check.number(self.damping, "damping", lo=0)
+        w, h = _check.vector(self.size, "size")
+        if not (1 <= w <= MAX_CANVAS and 1 <= h <= MAX_CANVAS and w == int(w) and h == int(h)):
+            raise ValueError(f"size must be (W, H) whole pixels in 1..{MAX_CANVAS}, got "
+                             f"{self.size!r}")
+        self.size = (int(w), int(h))
         for r in self.rigs:
             if not 0 <= r.body < len(self.bodies):
                 raise ValueError(f"rig refers to body {r.body}, but the scene has {len(self.bodies)}")
@@ -165,25 +287,57 @@ class Scene:
 
     @classmethod
     def from_json(cls, text_or_path):
-        """Inverse of :meth:`to_json` (JSON text or a file path)."""
-        text = str(text_or_path)
-        if not text.lstrip().startswith("{"):
-            with open(text) as fh:
-                text = fh.read()
-        d = json.loads(text)
+        """Inverse of :meth:`to_json`: JSON text or a file path.
+
+        FileNotFoundError for a missing file; ValueError naming the file (or "scene JSON")
+        and the field for invalid JSON, a missing or unknown key, a wrong type, an unknown
+        rig / stroke kind, a non-finite or out-of-range value or a corrupt texture."""
+        source, text = _scene_text(text_or_path)
+        try:
+            d = json.loads(text)
+        except json.JSONDecodeError as e:
+            raise ValueError(f"{source}: not valid JSON (line {e.lineno}, column {e.colno}: "
+                             f"{e.msg}); is the file truncated?") from None
+        try:
+            return cls.from_dict(d)
+        except ValueError as e:
+            raise ValueError(f"{source}: {e}") from None
+
+    @classmethod
+    def from_dict(cls, d):
+        """Inverse of :meth:`to_dict`; ValueError naming the field on bad data."""
+        d = _fields(d, "scene", required=("bodies",),
+                    optional=("strokes", "rigs", "gravity", "ground", "walls", "collisions",
+                              "restitution", "friction", "damping", "size"))
+        lists = {}
+        for key in ("bodies", "strokes", "rigs"):
+            lists[key] = d.get(key, [])
+            if not isinstance(lists[key], list):
+                raise ValueError(f"field {key} must be a JSON list, got "
+                                 f"{type(lists[key]).__name__}")
+        bodies = [Body.from_dict(b, f"bodies[{i}]") for i, b in enumerate(lists["bodies"])]
+        strokes = []
+        for i, st in enumerate(lists["strokes"]):
+            where = f"strokes[{i}]"
+            st = _fields(st, where, required=("points",),
+                         optional=("kind", "strength", "range", "speed", "start",
+                                   "n_particles", "loop", "direction"))
+            strokes.append(_at(where, lambda st=st: EnergyStroke(**st)))
         rigs = []
-        for r in d["rigs"]:
-            r = dict(r)
+        kinds = {"FixedRig": FixedRig, "WavyRig": WavyRig}
+        for i, r in enumerate(lists["rigs"]):
+            where = f"rigs[{i}]"
+            r = dict(_fields(r, where, required=("type",),
+                             optional=("body", "center", "radius", "vertices", "amplitude",
+                                       "frequency", "direction")))
             kind = r.pop("type")
-            for key in ("center", "vertices", "direction"):
-                if r.get(key) is not None:
-                    r[key] = tuple(r[key])
-            rigs.append({"FixedRig": FixedRig, "WavyRig": WavyRig}[kind](**r))
-        return cls(bodies=[Body.from_dict(b) for b in d["bodies"]],
-                   strokes=[EnergyStroke(**{**s, "direction": None if s.get("direction") is None
-                                            else tuple(s["direction"])}) for s in d["strokes"]],
-                   rigs=rigs,
-                   gravity=tuple(d["gravity"]), ground=d["ground"],
-                   walls=None if d["walls"] is None else tuple(d["walls"]),
-                   collisions=d["collisions"], restitution=d["restitution"],
-                   friction=d["friction"], damping=d["damping"], size=tuple(d["size"]))
+            if not isinstance(kind, str) or kind not in kinds:
+                raise ValueError(f"field {where}.type: unknown rig kind {kind!r}; expected "
+                                 f"{' or '.join(kinds)}")
+            if kind == "FixedRig" and {"amplitude", "frequency", "direction"} & set(r):
+                raise ValueError(f"field {where}: a FixedRig has no amplitude / frequency / "
+                                 f"direction (use type WavyRig)")
+            rigs.append(_at(where, lambda r=r, kind=kind: kinds[kind](**r)))
+        top = {k: d[k] for k in ("gravity", "ground", "walls", "collisions", "restitution",
+                                 "friction", "damping", "size") if k in d}
+        return _at("scene", lambda: cls(bodies=bodies, strokes=strokes, rigs=rigs, **top))

@@ -15,6 +15,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from physlab import _check
+
 from physlab import fem
 from physlab.integrators import SimulationDiverged
 from physlab.integrators import simulate as integrate_mechanical
@@ -145,6 +147,10 @@ class Animation:
         return [xb[k] for xb in self.x]
 
 
+#: Largest number of time steps :func:`simulate` runs (``duration / dt``).
+MAX_STEPS = 10_000_000
+
+
 def simulate(scene, duration, dt=1e-3, fps=24, progress=True, check_dt=True,
              method="semi_implicit_euler"):
     """Simulate ``scene`` for ``duration`` seconds with semi-implicit Euler (Eq. 7), or with
@@ -156,10 +162,13 @@ def simulate(scene, duration, dt=1e-3, fps=24, progress=True, check_dt=True,
     physical motion of the scene) raises :class:`UnstableTimeStep` naming a safe ``dt``.
     Returns an :class:`Animation`.
     """
-    if not duration > 0:
-        raise ValueError(f"duration must be > 0, got {duration}")
-    if not dt > 0:
-        raise ValueError(f"dt must be > 0, got {dt}")
+    duration = _check.number(duration, "duration (s)", lo=0, lo_open=True)
+    dt = _check.number(dt, "dt (s)", lo=0, lo_open=True)
+    fps = _check.number(fps, "fps", lo=0, hi=1000, lo_open=True)
+    if duration / dt > MAX_STEPS:
+        raise ValueError(f"duration {duration:g} s at dt = {dt:g} s is {duration / dt:,.0f} "
+                         f"steps, more than the limit of {MAX_STEPS:,}; shorten the run or use "
+                         f"a larger dt (or method='implicit_euler')")
     system = SceneSystem(scene)
     system.dt = dt
     safe = safe_time_step(scene)

@@ -14,6 +14,8 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
+from physlab import _check
+
 from .flow import FLOW_KINDS, flow_force
 
 __all__ = ["EnergyStroke"]
@@ -46,11 +48,24 @@ class EnergyStroke:
             raise ValueError(f"stroke points must have shape (k >= 2, 2), got {self.points.shape}")
         if self.kind not in FLOW_KINDS:
             raise ValueError(f"unknown stroke kind {self.kind!r}; valid kinds are: {', '.join(FLOW_KINDS)}")
-        if not (self.range > 0 and self.speed > 0 and np.isfinite(self.strength)):
-            raise ValueError("stroke range and speed must be > 0 and the strength finite")
-        if int(self.n_particles) != self.n_particles or self.n_particles < 1:
-            raise ValueError(f"n_particles must be an integer >= 1, got {self.n_particles}")
-        self.n_particles = int(self.n_particles)
+        if not np.all(np.isfinite(self.points)):
+            k = int(np.flatnonzero(~np.isfinite(self.points).all(1))[0])
+            raise ValueError(f"stroke points must be finite, point {k} is "
+                             f"{self.points[k].tolist()}")
+        self.strength = _check.number(self.strength, "stroke strength")
+        self.range = _check.number(self.range, "stroke range (px)", lo=0, lo_open=True)
+        self.speed = _check.number(self.speed, "stroke speed (px/s)", lo=0, lo_open=True)
+        self.start = _check.number(self.start, "stroke start (s)")
+        self.n_particles = _check.number(self.n_particles, "stroke n_particles", lo=1, hi=1000,
+                                         integer=True)
+        if not isinstance(self.loop, (bool, np.bool_)):
+            raise TypeError(f"stroke loop must be True or False, got {self.loop!r}")
+        if self.direction is not None:
+            d = _check.vector(self.direction, "stroke direction")
+            if not np.any(d):
+                raise ValueError("stroke direction must be a non-zero vector (or None: along "
+                                 "the stroke)")
+            self.direction = tuple(d)
         seg = np.linalg.norm(np.diff(self.points, axis=0), axis=1)
         if seg.sum() <= 0:
             raise ValueError("stroke has zero length")
