@@ -111,7 +111,7 @@ def read_image(path, name="image"):
     if not path.is_file():
         raise FileNotFoundError(f"{name} file {path} does not exist")
     try:
-        img = np.asarray(iio.imread(path))
+        img = np.asarray(iio.imread(path, plugin="pillow"))
     except Exception as e:  # noqa: BLE001 - imageio/pillow raise many kinds
         raise ValueError(f"{name} file {path} is not a readable image ({type(e).__name__}: "
                          f"{str(e).strip()[:200]})") from None

@@ -66,7 +66,7 @@ def _decode_png(text):
     if not isinstance(text, str):
         raise TypeError(f"texture must be a base64 PNG string, got {type(text).__name__}")
     try:
-        img = iio.imread(io.BytesIO(base64.b64decode(text, validate=True)), extension=".png")
+        img = iio.imread(io.BytesIO(base64.b64decode(text, validate=True)), plugin="pillow")
     except Exception as e:  # noqa: BLE001 - base64 / PNG decoders raise many kinds
         raise ValueError(f"texture is not a valid base64 PNG ({type(e).__name__})") from None
     from physlab.image import as_float, to_uint8
