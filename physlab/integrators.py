@@ -487,6 +487,11 @@ def _threadpool_controller():
     return ThreadpoolController()
 
 
+#: Systems with at most this many unknowns are solved densely (``numpy.linalg.solve``) by
+#: every :class:`LinearSolver` kind: exact, and faster than building sparse factors.
+DENSE_MAX = 64
+
+
 class LinearSolver:
     """Sparse solver for the implicit-Euler systems ``A dv = b``, kept across steps.
 
@@ -601,6 +606,8 @@ class LinearSolver:
         ``x0`` warm-starts CG; ``rtol`` (iterative kinds) overrides the default tolerance
         for this solve, e.g. an inexact-Newton forcing term."""
         self.stats["solves"] += 1
+        if A.shape[0] <= DENSE_MAX:  # tiny systems: LAPACK beats any sparse machinery
+            return np.linalg.solve(A.toarray(), b)
         kind = self.resolve(A.shape[0])
         if kind == "direct":
             z = self._factor(A)(b)

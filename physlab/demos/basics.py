@@ -13,6 +13,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import functools
+
 import numpy as np
 
 from physlab import springs
@@ -246,20 +248,31 @@ def make_scene(scene="chain", k=None, damping=None):
         return springs.hanging_spring(k=k, damping=damping)
     if scene == "chain":
         return springs.chain(12, length=1.0, k=k, total_mass=1.0, damping=damping)
-    if scene == "cloth":
-        return springs.cloth_grid(10, 10, width=1.0, height=1.0, k=k, damping=damping)
+    if scene == "cloth":  # held at one corner, so that it swings (two corners: it only sags)
+        return springs.cloth_grid(8, 8, width=1.0, height=1.0, k=k, damping=damping,
+                                  pin="top_left")
     return springs.soft_box(k=k, damping=damping)
 
 
 def run_scene(system, dt=0.005, duration=2.0, method="semi_implicit_euler"):
     """Simulate a scene from rest; a blow-up returns the partial run. Returns
-    ``(result, blew_up_step or None)``."""
+    ``(result, blew_up_step or None)``. Implicit Euler solves its Newton systems with the
+    ``"lagged"`` solver (factors reused while they keep CG fast): the same steps to the same
+    tolerance as a fresh factorisation, about twice as fast on these small scenes."""
     x0, v0 = system.rest_state()
     n = int(round(duration / dt))
+    kw = {"solver": "lagged"} if method == "implicit_euler" else {}
     try:
-        return simulate(system, x0, v0, dt, n, method), None
+        return simulate(system, x0, v0, dt, n, method, **kw), None
     except SimulationDiverged as err:
         return err.result, err.step
+
+
+@functools.lru_cache(maxsize=64)
+def _scene_run(scene, k, damping, dt, duration, method):
+    """:func:`run_scene` of :func:`make_scene` ``(scene, k, damping)``, cached so that a widget
+    redrawn after another control moved (e.g. the method) does not simulate again."""
+    return run_scene(make_scene(scene, k=k, damping=damping), dt, duration, method)
 
 
 def critical_time_step(system):
@@ -293,19 +306,23 @@ def energy_comparison(system, dt=0.005, duration=2.0, methods=MECHANICAL_METHODS
     return out
 
 
-def mass_spring_demo(scene="chain", k=None, damping=None, dt=0.002, method="semi_implicit_euler",
-                     duration=2.0, compare=True):
+def mass_spring_demo(scene="chain", k=None, damping=None, dt=0.004, method="semi_implicit_euler",
+                     duration=1.5, compare=True):
     """Left: snapshots of the scene under ``method``; right: energy over time of all three
     mechanical methods at the same dt (``compare``), or of ``method`` alone. Curves that
     leave the plot (energy blow-up) are clipped and their fate is given in the legend."""
     s = make_scene(scene, k=k, damping=damping)
-    r, blew = run_scene(s, dt, duration, method)
+    key = (scene, None if k is None else float(k), None if damping is None else float(damping),
+           float(dt), float(duration))
+    r, blew = _scene_run(*key, method)
     fig, (a, b) = plots.new_figure(2, 1, width=4.0, height=3.4)
     size = np.ptp(s.X, axis=0).max() + 1e-9
     sane = np.flatnonzero(np.abs(r.x - s.X).max(axis=(1, 2)) < 5 * size)  # frames worth drawing
     if s.n <= 40:
         idx = np.unique(np.linspace(0, sane[-1], 6).round().astype(int))
-        plots.plot_snapshots(a, r.x, s.edges, idx, fixed=s.fixed)
+        sm = plots.plot_snapshots(a, r.x, s.edges, idx, fixed=s.fixed, t=r.t)
+        fig.colorbar(sm, ax=a, orientation="horizontal", shrink=0.6, pad=0.15,
+                     label="snapshot time t (s): light = early, dark = late")
     else:  # dense scenes: rest shape in grey, last drawable frame coloured by strain
         plots.draw_springs(a, s.X, s.edges, color="0.85", particle_size=0)
         lc = plots.draw_springs(a, r.x[sane[-1]], s.edges, fixed=s.fixed, particle_size=2,
@@ -313,11 +330,14 @@ def mass_spring_demo(scene="chain", k=None, damping=None, dt=0.002, method="semi
         fig.colorbar(lc, ax=a, orientation="horizontal", shrink=0.6, label="strain l/L - 1")
     if s.ground is not None:
         a.axhline(s.ground, color="0.5")
+    a.set_xlabel("x (m)")
+    a.set_ylabel("y (m)")
+    a.locator_params(axis="x", nbins=4)
     a.set_title(f"{scene}: {method}, t = {r.t[sane[-1]]:.2f} s"
                 + (f", blew up at step {blew}" if blew else ""), fontsize=9)
     e0 = s.energy(*s.rest_state())
     E = energy_comparison(s, dt, duration, MECHANICAL_METHODS if compare else (method,),
-                          runs={method: (r, blew)})
+                          runs={m: _scene_run(*key, m) for m in MECHANICAL_METHODS})
     tame = [e for _, e, bl in E.values() if bl is None and np.ptp(e) < 10 * abs(e0) + 10]
     ref = np.concatenate(tame) if tame else np.array([e0 - 1.0, e0 + 1.0])
     lo, hi = min(ref.min(), e0), max(ref.max(), e0)
@@ -335,6 +355,6 @@ def mass_spring_demo(scene="chain", k=None, damping=None, dt=0.002, method="semi
     b.set_ylabel("total energy (J)")
     b.legend(fontsize=6.5)
     kk = s.k.max()
-    b.set_title(f"k = {kk:.3g} N/m, γ = {s.damping:.3g}, dt = {dt:.3g} s "
+    b.set_title(f"k = {kk:.3g} N/m, γ = {s.damping:.3g}, dt = {dt:.3g} s\n"
                 f"(critical 2/ω_max = {critical_time_step(s):.2g} s)", fontsize=8)
     return fig

@@ -61,31 +61,50 @@ def draw_springs(ax, x, edges, fixed=(), color="0.3", lw=0.8, particle_size=6, s
     return lc
 
 
-def plot_snapshots(ax, xs, edges, indices, fixed=(), cmap="viridis"):
+def plot_snapshots(ax, xs, edges, indices, fixed=(), cmap="viridis_r", t=None):
     """Overlay the spring system at several frames ``indices`` of ``xs`` (T, n, 2), early
-    frames light, late frames dark: a static 'film strip' for readers without video."""
-    import matplotlib
+    frames light, late frames dark: a static 'film strip' for readers without video.
 
+    ``t``: optional (T,) times; returns a ScalarMappable of the snapshot times (or frame
+    indices) for a colourbar that explains the colours."""
+    import matplotlib
+    from matplotlib.cm import ScalarMappable
+    from matplotlib.colors import Normalize
+
+    indices = list(indices)
+    when = np.asarray(t)[indices] if t is not None else np.asarray(indices, float)
+    lo, hi = float(when[0]), float(when[-1]) if when[-1] > when[0] else float(when[0]) + 1
     cm = matplotlib.colormaps[cmap]
-    for k, i in enumerate(indices):
-        c = cm(0.15 + 0.8 * k / max(1, len(indices) - 1))
-        draw_springs(ax, xs[i], edges, fixed=fixed, color=[c], particle_size=3)
+    sub = matplotlib.colors.ListedColormap(cm(np.linspace(0.1, 0.95, 256)))
+    norm = Normalize(lo, hi)
+    for i, w in zip(indices, when):
+        draw_springs(ax, xs[i], edges, fixed=fixed, color=[sub(norm(w))], particle_size=3)
     ax.set_aspect("equal")
+    return ScalarMappable(norm=norm, cmap=sub)
 
 
 def plot_convergence(ax, dts, errors, orders=None):
     """Log–log error against ``dt`` per method (``errors``: dict method -> (len(dts),)).
 
-    The legend gives each measured slope (least-squares in log–log); dashed guides show
-    the theoretical ``orders`` (dict method -> p) when given."""
+    The legend gives each measured slope (least-squares in log–log); dotted guides show
+    the theoretical ``orders`` (dict method -> p) when given. A method whose errors equal an
+    earlier one's (midpoint and Heun on a linear ODE) is drawn dashed with hollow squares and
+    labelled so, instead of hiding under it."""
     from physlab.integrators import convergence_order
 
     dts = np.asarray(dts)
-    slopes = {}
+    slopes, drawn = {}, {}
     for m, e in errors.items():
         e = np.asarray(e)
         slopes[m] = convergence_order(dts, e)
-        ax.loglog(dts, e, "o-", color=METHOD_COLORS.get(m), label=f"{m}: slope {slopes[m]:.2f}")
+        twin = next((p for p, ep in drawn.items() if np.allclose(e, ep, rtol=1e-6, atol=0)), None)
+        label = f"{m}: slope {slopes[m]:.2f}"
+        if twin is None:
+            ax.loglog(dts, e, "o-", color=METHOD_COLORS.get(m), label=label)
+        else:  # the same numbers (midpoint = Heun on a linear ODE): keep both visible
+            ax.loglog(dts, e, "s--", mfc="none", ms=9, color=METHOD_COLORS.get(m),
+                      label=f"{label} (= {twin}: identical here)")
+        drawn[m] = e
         if orders and m in orders:
             ax.loglog(dts, e[-1] * (dts / dts[-1]) ** orders[m], ":", color=METHOD_COLORS.get(m), lw=1)
     from matplotlib.ticker import NullFormatter
