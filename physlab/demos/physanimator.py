@@ -14,6 +14,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import functools
+
 import numpy as np
 
 from physlab import datasets, fem
@@ -46,17 +48,22 @@ def drawing_body(drawing, E=2e5, nu=0.3, rho=1.0, max_area=None, offset=(0.0, 0.
 @dataclass
 class AnimationResult:
     """Output of :func:`animate`: the simulation, rendered frames (F, H, W, 3) uint8 and
-    control images (F, H, W) uint8 (dark lines on white)."""
+    control images (F, H, W) uint8 (dark lines on white); ``frame_index`` (F,) which stored
+    frames they are."""
 
     animation: object
     frames: np.ndarray
     controls: np.ndarray | None
+    frame_index: np.ndarray | None = None   # stored-frame numbers of ``frames`` (all: None)
 
 
 def animate(scene, duration=2.0, fps=24, dt=1e-3, control=True, supersample=2, progress=False,
-            background=(1.0, 1.0, 1.0)):
+            background=(1.0, 1.0, 1.0), frames=None):
     """Simulate ``scene`` and render every frame by warping each body's texture with its
-    simulated mesh (bodies without texture are drawn flat grey). Returns :class:`AnimationResult`."""
+    simulated mesh (bodies without texture are drawn flat grey). ``frames``: indices of the
+    stored frames to render, or a count of evenly spaced ones (default all; a filmstrip needs
+    only a few). Returns
+    :class:`AnimationResult` (``frame_index``: the rendered frames' indices)."""
     from physlab.render import WarpRenderer
 
     anim = pa.simulate(scene, duration, dt=dt, fps=fps, progress=progress)
@@ -74,9 +81,18 @@ def animate(scene, duration=2.0, fps=24, dt=1e-3, control=True, supersample=2, p
     renderer = WarpRenderer(textures, X_list, [b.mesh.tris for b in scene.bodies], (H, W),
                             depth=[b.depth for b in scene.bodies], background=background,
                             supersample=supersample, control=control)
-    out = renderer.render_sequence([anim.frame(k) for k in range(anim.n_frames)], progress=progress)
-    frames, controls = out if control else (out, None)
-    return AnimationResult(anim, frames, controls)
+    if frames is None:
+        index = np.arange(anim.n_frames)
+    elif np.ndim(frames) == 0:                       # a count: evenly spaced frames
+        index = _strip(anim.n_frames, int(frames))
+    else:
+        index = np.asarray(frames, dtype=int)
+        if index.size and (index.min() < 0 or index.max() >= anim.n_frames):
+            raise ValueError(f"frames must be indices in 0..{anim.n_frames - 1}, got "
+                             f"{index.tolist()}")
+    out = renderer.render_sequence([anim.frame(k) for k in index], progress=progress)
+    images, controls = out if control else (out, None)
+    return AnimationResult(anim, images, controls, index)
 
 
 def max_strain(anim, body=0):
@@ -84,15 +100,41 @@ def max_strain(anim, body=0):
     return max(max_strain_frame(anim, k, body) for k in range(anim.n_frames))
 
 
-def filmstrip(frames, n=6, controls=None, width=1.6):
-    """A figure with ``n`` evenly spaced frames (and their control images below)."""
-    idx = np.unique(np.linspace(0, len(frames) - 1, n).round().astype(int))
+def _strip(n_frames, n=6):
+    """Indices of ``n`` evenly spaced frames out of ``n_frames``."""
+    return np.unique(np.linspace(0, n_frames - 1, n).round().astype(int))
+
+
+def _crop_to_content(frames, controls=None, pad=6):
+    """Frames (and controls) cut to the box, over all of them, of the pixels that differ
+    from the background colour of the top-left pixel (plus ``pad``): no empty canvas."""
+    F = np.stack(frames)
+    bg = F[0, 0, 0]
+    ink = np.any(F != bg, axis=-1).any(axis=0)                             # (H, W)
+    if not ink.any():
+        return F, None if controls is None else np.stack(controls)
+    rows, cols = np.flatnonzero(ink.any(1)), np.flatnonzero(ink.any(0))
+    r0, r1 = max(rows[0] - pad, 0), min(rows[-1] + pad + 1, F.shape[1])
+    c0, c1 = max(cols[0] - pad, 0), min(cols[-1] + pad + 1, F.shape[2])
+    C = None if controls is None else np.stack(controls)[:, r0:r1, c0:c1]
+    return F[:, r0:r1, c0:c1], C
+
+
+def filmstrip(frames, n=6, controls=None, width=1.6, index=None):
+    """A figure with ``n`` evenly spaced frames (and their control images below); ``index``:
+    the frame numbers of ``frames`` when they are a selection (titles)."""
+    idx = _strip(len(frames), n)
+    frames, controls = _crop_to_content([frames[k] for k in idx],
+                                        None if controls is None else [controls[k] for k in idx])
+    idx_shown, idx = idx, np.arange(len(idx))
     rows = 2 if controls is not None else 1
     fig, axes = plots.new_figure(len(idx), rows, width=width, height=width * frames.shape[1] / frames.shape[2])
     axes = np.asarray(axes).reshape(rows, len(idx))
     for j, k in enumerate(idx):
+        shown = idx_shown[k]
         axes[0, j].imshow(frames[k])
-        axes[0, j].set_title(f"frame {k}", fontsize=8)
+        axes[0, j].set_title(f"frame {shown if index is None else int(index[shown])}",
+                             fontsize=8)
         if controls is not None:
             axes[1, j].imshow(controls[k], cmap="gray", vmin=0, vmax=255)
     for ax in axes.ravel():
@@ -136,19 +178,35 @@ def element_demo(stretch_x=1.3, stretch_y=1.0, shear=0.0, rotation_deg=0.0, E=1e
 
 def flow_field_demo(strength=1.0, range=1.0, direction_deg=0.0):
     """The three flow particles' force fields around a particle at the origin (Fig. 1)."""
-    g = np.linspace(-1.3 * range, 1.3 * range, 21)
+    g = np.linspace(-1.3 * range, 1.3 * range, 15)
     q = np.stack(np.meshgrid(g, g), -1).reshape(-1, 2)
     d = (np.cos(np.deg2rad(direction_deg)), np.sin(np.deg2rad(direction_deg)))
-    fig, axes = plots.new_figure(3, 1, width=2.8, height=2.8)
-    for ax, kind in zip(axes, pa.FLOW_KINDS):
-        f = pa.flow_force(kind, (0.0, 0.0), q, strength, range, d)
-        ax.quiver(q[:, 0], q[:, 1], f[:, 0], f[:, 1], np.linalg.norm(f, axis=1), cmap="viridis",
-                  angles="xy")
-        ax.add_patch(__import__("matplotlib").patches.Circle((0, 0), range, fill=False, ls=":"))
+    from matplotlib.colors import Normalize
+    from matplotlib.patches import Circle
+
+    fig, axes = plots.new_figure(3, 1, width=2.8, height=3.1)
+    forces = {kind: pa.flow_force(kind, (0.0, 0.0), q, strength, range, d)
+              for kind in pa.FLOW_KINDS}
+    norm = Normalize(0.0, max(float(np.linalg.norm(f, axis=1).max()) for f in forces.values()))
+    for ax, (kind, f) in zip(axes, forces.items()):
+        qv = ax.quiver(q[:, 0], q[:, 1], f[:, 0], f[:, 1], np.linalg.norm(f, axis=1),
+                       cmap="viridis", norm=norm, angles="xy", width=0.008)
+        ax.add_patch(Circle((0, 0), range, fill=False, ls=":"))
         ax.plot(0, 0, "r*", ms=10)
-        ax.set_title(kind, fontsize=9)
+        ax.set_title(kind + (" (Eq. 8)" if kind == "wind" else " (Eq. 9)"), fontsize=9)
         ax.set_aspect("equal")
         ax.invert_yaxis()  # image coordinates, y down
+        ax.set_xlabel("x (range units)", fontsize=7)
+    # the wind's direction d, drawn outside the field in the first panel
+    a0 = axes[0]
+    a0.annotate("", xy=(-1.25 * range + 0.5 * range * d[0], -1.2 * range + 0.5 * range * d[1]),
+                xytext=(-1.25 * range, -1.2 * range),
+                arrowprops=dict(arrowstyle="-|>", color="tab:red", lw=1.5))
+    a0.text(-1.25 * range, -1.45 * range, "d", color="tab:red", fontsize=8)
+    fig.colorbar(qv, ax=axes, orientation="horizontal", shrink=0.5, pad=0.2,
+                 label="|f| per vertex (force units of s)")
+    fig.suptitle("flow particle (red star) at the origin, range r dotted; arrows: force on a "
+                 "vertex there", fontsize=8)
     return fig
 
 
@@ -167,19 +225,42 @@ def ball_push_scene(E=2e5, nu=0.3, strength=2e4, size=160, seed=0):
 
 def youngs_modulus_sweep(Es=(5e4, 1e5, 2e5, 4e5), duration=1.5, strength=2e4, size=160):
     """The same push on balls of increasing Young's modulus (Fig. 5). Returns
-    ``(fig, strains)``: each ball at its most strained frame, and the max principal strains."""
-    fig, axes = plots.new_figure(len(Es), 1, width=2.3, height=2.0)
-    strains = []
-    for ax, E in zip(np.atleast_1d(axes), Es):
-        r = animate(ball_push_scene(E, strength=strength, size=size), duration, control=False)
-        per_frame = [max_strain_frame(r.animation, k) for k in range(r.animation.n_frames)]
+    ``(fig, strains)``: each ball at its most strained frame — triangles coloured by their
+    largest principal strain ``max|σ_i(F) − 1|`` on one shared scale, the rest outline dashed,
+    the wall grey, all panels cropped to the same window — and the max strains."""
+    runs = []
+    for E in Es:
+        scene = ball_push_scene(E, strength=strength, size=size)
+        anim = pa.simulate(scene, duration, progress=False)
+        per_frame = [max_strain_frame(anim, k) for k in range(anim.n_frames)]
         k = int(np.argmax(per_frame))
-        strains.append(float(per_frame[k]))
-        ax.imshow(r.frames[k])
-        ax.axvline(r.animation.scene.walls[1], color="0.4", lw=3)
-        ax.set_axis_off()
-        ax.set_title(f"E = {E:.0e}\nmax strain {strains[-1]:.2f}", fontsize=8)
-    return fig, strains
+        b = scene.bodies[0]
+        Fk = fem.deformation_gradients(anim.x[0][k], b.X_canvas, b.mesh.tris)
+        tri_strain = np.abs(np.linalg.svd(Fk, compute_uv=False) - 1).max(axis=1)   # (T,)
+        runs.append((scene, anim.x[0][k], tri_strain, float(per_frame[k])))
+    vmax = max(r[2].max() for r in runs)
+    pts = np.concatenate([np.concatenate([r[1], r[0].bodies[0].X_canvas]) for r in runs])
+    wall = runs[0][0].walls[1]
+    (x0, y0), (x1, y1) = pts.min(0) - 6, pts.max(0) + 6
+    x1 = max(x1, wall + 6)
+    fig, axes = plots.new_figure(len(Es), 1, width=1.9, height=1.9 * (y1 - y0) / (x1 - x0) + 0.5)
+    for ax, E, (scene, x, strain, smax) in zip(np.atleast_1d(axes), Es, runs):
+        b = scene.bodies[0]
+        tp = ax.tripcolor(x[:, 0], x[:, 1], b.mesh.tris, facecolors=strain, cmap="magma_r",
+                          vmin=0.0, vmax=vmax, edgecolors="none")
+        rest = b.X_canvas[b.mesh.boundary_edges()]                              # (E, 2, 2)
+        ax.plot(*np.transpose(rest, (2, 1, 0)), color="0.35", lw=0.8, ls="--")
+        ax.axvline(wall, color="0.5", lw=3)
+        ax.set_xlim(x0, x1)
+        ax.set_ylim(y1, y0)                                                     # image: y down
+        ax.set_aspect("equal")
+        ax.set_xticks([])
+        ax.set_yticks([])
+        ax.set_title(f"E = {E:.0e}\nmax strain {smax:.2f}", fontsize=8)
+    fig.colorbar(tp, ax=np.atleast_1d(axes), shrink=0.8, label="principal strain |σ − 1|")
+    fig.suptitle("dashed: rest shape; grey bar: the wall the wind pushes the ball against",
+                 fontsize=7)
+    return fig, [r[3] for r in runs]
 
 
 def max_strain_frame(anim, k, body=0):
@@ -193,17 +274,22 @@ def max_strain_frame(anim, k, body=0):
 
 def tree_scene(strength=4e4, range=90.0, direction_deg=0.0, speed=300.0, E=1.5e5, size=256,
                seed=0):
-    """A cartoon tree pinned at its trunk base; a wind stroke sweeps across its crown (Fig. 6)."""
+    """A cartoon tree pinned at its trunk base; a wind stroke sweeps across its crown (Fig. 6).
+
+    The canvas is twice the drawing's size, the tree in its middle, so that the crown stays
+    in the picture under the strongest wind of the lesson's slider (8e4) from any direction
+    (figures crop to what moved: :func:`filmstrip`)."""
     tree = datasets.cartoon_tree(size=size, seed=seed)
-    body = drawing_body(tree, E=E)
+    off = np.array([size / 2, size / 2])
+    body = drawing_body(tree, E=E, offset=tuple(off))
     pins = tree.pins if len(tree.pins) else np.array([[size / 2, size - 5.0]])
-    rigs = [pa.FixedRig(body=0, center=tuple(p), radius=0.08 * size) for p in pins]
+    rigs = [pa.FixedRig(body=0, center=tuple(p + off), radius=0.08 * size) for p in pins]
     th = np.deg2rad(direction_deg)
-    c, L = np.array([size / 2, 0.38 * size]), 0.7 * size
+    c, L = np.array([size / 2, 0.38 * size]) + off, 0.7 * size
     d = np.array([np.cos(th), np.sin(th)])
     stroke = pa.EnergyStroke([c - L * d, c + L * d], "wind", strength=strength, range=range,
                              speed=speed, n_particles=3, loop=True)
-    return pa.Scene([body], strokes=[stroke], rigs=rigs, damping=2.0, size=(size, size))
+    return pa.Scene([body], strokes=[stroke], rigs=rigs, damping=2.0, size=(2 * size, 2 * size))
 
 
 def flag_scene(frequency=6.0, amplitude=12.0, E=8e4, size=256, seed=0):
@@ -233,14 +319,16 @@ def collision_scene(E=1e6, size=140, seed=0):
 
 def stroke_demo(strength=4e4, range=90.0, direction_deg=0.0, duration=1.5):
     """Widget callback: the tree under one wind stroke; filmstrip of rendered frames."""
-    r = animate(tree_scene(strength, range, direction_deg), duration, control=False)
-    return filmstrip(r.frames, n=6)
+    r = animate(tree_scene(strength, range, direction_deg), duration, control=False,
+                frames=6)
+    return filmstrip(r.frames, n=6, index=r.frame_index)
 
 
 def flag_demo(frequency=6.0, amplitude=12.0, duration=1.5):
     """Widget callback: the flag driven by a wavy rig (Eq. 10); frames and control images."""
-    r = animate(flag_scene(frequency, amplitude), duration, control=True)
-    return filmstrip(r.frames, n=6, controls=r.controls)
+    r = animate(flag_scene(frequency, amplitude), duration, control=True,
+                frames=6)
+    return filmstrip(r.frames, n=6, controls=r.controls, index=r.frame_index)
 
 
 def ball_push_demo(E=1e5, nu=0.3, dt=1e-3, duration=1.5):
@@ -252,19 +340,28 @@ def ball_push_demo(E=1e5, nu=0.3, dt=1e-3, duration=1.5):
     with warnings.catch_warnings():  # the figure reports the step size problem itself
         warnings.simplefilter("ignore")
         try:
-            r = animate(scene, duration, dt=dt, control=False)
+            r = animate(scene, duration, dt=dt, control=False,
+                        frames=5)
         except pa.UnstableTimeStep as err:
             fig, ax = plots.new_figure(width=6.0, height=1.2)
             ax.set_axis_off()
             ax.text(0.0, 0.5, f"{type(err).__name__}: {err}", fontsize=8, wrap=True, va="center")
             return fig
-    fig = filmstrip(r.frames, n=5)
+    fig = filmstrip(r.frames, n=5, index=r.frame_index)
     for ax in fig.axes:
         ax.axvline(scene.walls[1], color="0.4", lw=3)
+    limit, est = _stable_dt(float(E), float(nu))
     fig.suptitle(f"Young's modulus {E:.3g}, ν = {nu:.2f}, dt = {dt:.2g} s: max strain "
-                 f"{max_strain(r.animation):.2f} (conservative CFL estimate: dt ≤ "
-                 f"{pa.safe_time_step(scene):.2g} s)", fontsize=8)
+                 f"{max_strain(r.animation):.2f}\nCFL estimate dt ≤ {est:.2g} s is conservative: "
+                 f"this ball blows up only above dt ≈ {limit:.2g} s ({limit / est:.1f}×)",
+                 fontsize=8)
     return fig
+
+
+@functools.lru_cache(maxsize=32)
+def _stable_dt(E, nu):
+    """(measured stable dt, CFL estimate) of :func:`ball_push_scene` (E, nu), cached."""
+    return pa.measured_stable_dt(ball_push_scene(E, nu), duration=0.5)
 
 
 def animate_drawing(drawing="tree", duration=2.0, fps=24, E=1.5e5, nu=0.3, strength=4e4,

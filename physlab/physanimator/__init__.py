@@ -13,16 +13,17 @@ The paper's final stage renders frames with a sketch-guided video diffusion mode
 warping the drawing with the simulated mesh (:mod:`physlab.render`) and also produces the
 per-frame control images such a model would consume.
 """
-from .collisions import resolve_body_contacts, resolve_half_planes
+from .collisions import max_penetration, resolve_body_contacts, resolve_half_planes
 from .flow import FLOW_KINDS, attract_force, flow_force, repel_force, wind_force
 from .rigging import FixedRig, WavyRig, wavy_rig_position
 from .scene import Body, Material, Scene
-from .simulation import Animation, SceneSystem, UnstableTimeStep, safe_time_step, simulate
+from .simulation import (Animation, SceneSystem, UnstableTimeStep, measured_stable_dt,
+                         safe_time_step, simulate)
 from .strokes import EnergyStroke
 
 __all__ = [
     "wind_force", "repel_force", "attract_force", "flow_force", "FLOW_KINDS", "EnergyStroke",
     "FixedRig", "WavyRig", "wavy_rig_position", "Material", "Body", "Scene", "simulate",
     "Animation", "SceneSystem", "UnstableTimeStep", "safe_time_step", "resolve_half_planes",
-    "resolve_body_contacts",
+    "resolve_body_contacts", "max_penetration", "measured_stable_dt",
 ]

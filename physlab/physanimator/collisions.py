@@ -171,3 +171,33 @@ def resolve_body_contacts(x, v, inv_m, bodies, restitution=0.2, friction=0.3, ma
                 np.add.at(v, e1, -(w1 * inv_m[e1])[:, None] * I)
             hits += len(cand)
     return hits
+
+
+def max_penetration(animation, scene=None):
+    """Deepest penetration (px) of any body into another in each stored frame.
+
+    For every ordered pair of bodies (A, B) and frame, the vertices of A inside a triangle of
+    B are found (:func:`points_in_triangles`) and their distance to B's boundary
+    (:func:`closest_points_on_segments`) is the depth. ``animation`` is the
+    :class:`~physlab.physanimator.Animation` of :func:`~physlab.physanimator.simulate`
+    (``scene`` defaults to ``animation.scene``). Returns (F,) float, 0 where no vertex is
+    inside another body; ``.max()`` is the deepest over the run."""
+    scene = animation.scene if scene is None else scene
+    bodies = scene.bodies
+    if len(animation.x) != len(bodies):
+        raise ValueError(f"the animation has {len(animation.x)} bodies, the scene "
+                         f"{len(bodies)}: pass the scene that was simulated")
+    F = len(animation.t)
+    depth = np.zeros(F)
+    for ia in range(len(bodies)):
+        for ib in range(len(bodies)):
+            if ia == ib:
+                continue
+            T, e = bodies[ib].mesh.tris, bodies[ib].mesh.boundary_edges()
+            for k in range(F):                  # frames: few; vertices and triangles vectorised
+                a, b = animation.x[ia][k], animation.x[ib][k]
+                inside = points_in_triangles(a, b[T[:, 0]], b[T[:, 1]], b[T[:, 2]]).any(1)
+                if inside.any():
+                    d = closest_points_on_segments(a[inside], b[e[:, 0]], b[e[:, 1]])[3]
+                    depth[k] = max(depth[k], float(d.max()))
+    return depth

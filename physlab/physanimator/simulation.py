@@ -24,7 +24,8 @@ from physlab.integrators import simulate as integrate_mechanical
 from .collisions import resolve_body_contacts, resolve_half_planes
 from .rigging import WavyRig
 
-__all__ = ["simulate", "Animation", "SceneSystem", "UnstableTimeStep", "safe_time_step"]
+__all__ = ["simulate", "Animation", "SceneSystem", "UnstableTimeStep", "safe_time_step",
+           "measured_stable_dt"]
 
 
 class UnstableTimeStep(FloatingPointError):
@@ -40,6 +41,41 @@ def safe_time_step(scene, safety=0.5):
     ``safety · h_min / c`` (:func:`physlab.fem.stable_time_step`)."""
     return min(fem.stable_time_step(b.mesh.X, b.mesh.tris, b.material.E, b.material.nu,
                                     b.material.rho, safety) for b in scene.bodies)
+
+
+def measured_stable_dt(scene, duration=0.5, rel_tol=0.05, method="semi_implicit_euler"):
+    """The largest step (s) at which :func:`simulate` runs ``scene`` for ``duration`` without
+    blowing up, measured: doubling from :func:`safe_time_step` until a run fails, then
+    bisection (in log dt) to ``rel_tol``. The CFL estimate is conservative; this says by how
+    much, for this scene. Returns ``(dt_stable, dt_estimate)``; ``dt_stable`` is capped at
+    64 × the estimate."""
+    import warnings
+
+    est = safe_time_step(scene)
+
+    def stable(dt):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            try:
+                simulate(scene, duration, dt=dt, progress=False, method=method)
+                return True
+            except UnstableTimeStep:
+                return False
+
+    lo, hi = 0.0, None
+    for factor in (1, 2, 4, 8, 16, 32, 64):
+        if not stable(factor * est):
+            hi = factor * est
+            break
+        lo = factor * est
+    if hi is None:
+        return lo, est
+    if lo == 0.0:
+        lo = est / 64
+    while hi / lo > 1 + rel_tol:
+        mid = float(np.sqrt(lo * hi))
+        lo, hi = (mid, hi) if stable(mid) else (lo, mid)
+    return lo, est
 
 
 class SceneSystem:

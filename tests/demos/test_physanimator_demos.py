@@ -39,11 +39,30 @@ def test_youngs_modulus_sweep_is_monotone():
 def test_animate_renders_moving_frames_and_control_images():
     r = demo.animate(demo.tree_scene(), duration=0.5, fps=24)
     F, H, W, _ = r.frames.shape
-    assert F == r.animation.n_frames == 13 and (H, W) == (256, 256)  # t = 0 and 12 frames
+    assert F == r.animation.n_frames == 13 and (H, W) == (512, 512)  # t = 0 and 12 frames
     assert r.controls.shape == (F, H, W)
     assert np.abs(r.frames[-1].astype(int) - r.frames[0]).mean() > 0.5  # the tree moved
     dark = r.controls < 128
     assert 0.005 < dark.mean() < 0.2  # line art: some lines, mostly white
+
+
+@pytest.mark.parametrize("direction_deg", [0.0, 180.0, 90.0, -90.0])
+def test_the_tree_stays_on_its_canvas_under_the_strongest_wind(direction_deg):
+    """Lesson 05's slider goes up to s = 8e4; the crown must stay in the picture for 2 s."""
+    from physlab import physanimator as pa
+
+    scene = demo.tree_scene(strength=8e4, direction_deg=direction_deg)
+    x = pa.simulate(scene, 2.0, progress=False).x[0]                      # (F, n, 2)
+    W, H = scene.size
+    assert x[..., 0].min() >= 0 and x[..., 0].max() <= W
+    assert x[..., 1].min() >= 0 and x[..., 1].max() <= H
+
+
+def test_animate_renders_a_selection_of_frames():
+    r = demo.animate(demo.tree_scene(), duration=0.5, fps=24, control=False, frames=4)
+    assert list(r.frame_index) == [0, 4, 8, 12] and len(r.frames) == 4
+    with pytest.raises(ValueError, match=r"frames must be indices in 0\.\.12"):
+        demo.animate(demo.tree_scene(), duration=0.5, fps=24, control=False, frames=[13])
 
 
 @pytest.mark.parametrize("name", datasets.ANIMATED_DRAWINGS)
