@@ -417,7 +417,7 @@ def limb_results(angle_deg=120.0):
     return ex, xs, stats
 
 
-def _draw_limb(ax, ex, x, stats, method, zoom=0.0):
+def _draw_limb(ax, ex, x, stats, method, zoom=0.0, box=None):
     from physlab.inbetween.skinning import triangle_area_ratios
 
     ratio = triangle_area_ratios(ex.X, x, ex.tris)
@@ -431,7 +431,11 @@ def _draw_limb(ax, ex, x, stats, method, zoom=0.0):
     st = stats[method]
     ax.set_title(f"{LIMB_METHODS[method]}\nelbow area loss {100 * st['area_loss']:.1f} %, "
                  f"flipped {st['flipped']}", fontsize=8)
-    if zoom:
+    if box is not None:                       # (x0, y0, x1, y1): the whole limb, shoulder to hand
+        ax.set_xlim(box[0], box[2])
+        ax.set_ylim(box[3], box[1])
+        ax.set_aspect("equal")
+    elif zoom:
         e = ex.skeleton_pose.xy[1]
         w = zoom * (ex.X[:, 1].max() - ex.X[:, 1].min())
         ax.set_xlim(e[0] - w, e[0] + w)
@@ -442,13 +446,17 @@ def _draw_limb(ax, ex, x, stats, method, zoom=0.0):
 
 
 def limb_comparison(angle_deg=120.0):
-    """Three panels (LBS, ARAP, Eq. 1) of the arm bent by ``angle_deg``, zoomed on the
-    elbow and coloured by triangle area ratio (blue shrunk, red grown, black folded or
+    """Three panels (LBS, ARAP, Eq. 1) of the arm bent by ``angle_deg``, the whole limb from
+    shoulder to hand on one scale, coloured by triangle area ratio (blue shrunk, red grown, black folded or
     collapsed, outlined yellow). Returns ``(fig, stats)`` (see :func:`limb_results`)."""
     ex, xs, stats = limb_results(angle_deg)
-    fig, axes = new_figure(3, width=2.7, height=2.9)
+    pts = np.concatenate(list(xs.values()) + [ex.skeleton_pose.xy])
+    pad = 0.04 * np.ptp(pts, axis=0).max()
+    box = (*(pts.min(0) - pad), *(pts.max(0) + pad))
+    aspect = (box[3] - box[1]) / (box[2] - box[0])
+    fig, axes = new_figure(3, width=2.7, height=min(2.7 * aspect + 0.6, 4.0))
     for ax, m in zip(axes, xs):
-        art = _draw_limb(ax, ex, xs[m], stats, m, zoom=1.3)
+        art = _draw_limb(ax, ex, xs[m], stats, m, box=box)
     fig.colorbar(art, ax=list(axes), shrink=0.8, extend="both",
                  label="area ratio a_f / A_f (black ≤ 0)")
     fig.suptitle(f"forearm bent {angle_deg:g}° at the elbow", fontsize=9)

@@ -128,9 +128,9 @@ def comparison_sheet(frames, truth, path=None, every=2, title=None):
             ax.set_xticks([])
             ax.set_yticks([])
             if c == 0:
-                ax.set_ylabel(name, fontsize=6)
+                ax.set_ylabel(name.replace("_", " "), fontsize=8)
             if r == len(rows) - 1:
-                ax.set_xlabel(f"t={i / (n - 1):.1f}", fontsize=6)
+                ax.set_xlabel(f"t = {i / (n - 1):.3g}", fontsize=8)
     if title:
         fig.suptitle(title, fontsize=8)
     if path is not None:

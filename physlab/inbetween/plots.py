@@ -84,9 +84,9 @@ def plot_image_matrix(images, alphas, t, path=None, diagonal=None, every=1, widt
                         s.set_edgecolor(colr)
                         s.set_linewidth(2.5)
             if i == n_t - 1:
-                ax.set_xlabel(f"α={alphas[k]:.2f}", fontsize=6)
+                ax.set_xlabel(f"α={alphas[k]:.3g}", fontsize=7)
             if j == 0:
-                ax.set_ylabel(f"t={t[i]:.3g}", fontsize=6)
+                ax.set_ylabel(f"t={t[i]:.3g}", fontsize=8)
     return fig
 
 
