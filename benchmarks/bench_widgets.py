@@ -210,13 +210,21 @@ def report(rows, ref):
         lines.append(f"{r['lesson']:6s} {r['callback'][:24]:24s} {r['control'][:22]:22s} "
                      f"{v[:12]:>12s} {r['cold']:7.3f} {r['warm']:7.3f}")
     med, worst = statistics.median(warm), max(warm)
-    ok = med <= TARGET_MEDIAN and worst <= TARGET_MAX
-    lines += ["", f"{len(rows)} calls: median {med:.3f} s, max {worst:.3f} s "
-                  f"(target: median <= {TARGET_MEDIAN} s, max <= {TARGET_MAX} s): "
-                  f"{'met' if ok else 'NOT met'}",
+    # what a student waits for after moving a control to a new value: the first ("cold")
+    # call with it — caches of earlier values do not help there
+    moved = [r["cold"] for r in rows if r["control"] != "—"]
+    med_m, worst_m = statistics.median(moved), max(moved)
+    ok = med <= TARGET_MEDIAN and worst <= TARGET_MAX and med_m <= TARGET_MEDIAN \
+        and worst_m <= TARGET_MAX
+    lines += ["", f"{len(rows)} calls, best of the repeats: median {med:.3f} s, max {worst:.3f} s",
+              f"{len(moved)} first calls after moving a control: median {med_m:.3f} s, max "
+              f"{worst_m:.3f} s",
+              f"target: median <= {TARGET_MEDIAN} s, max <= {TARGET_MAX} s (both rows): "
+              f"{'met' if ok else 'NOT met'}",
               f"reference (one trivial matplotlib figure, same run): {ref * 1000:.1f} ms; "
               f"median / reference = {med / ref:.0f}"]
-    return "\n".join(lines), dict(median=med, max=worst, met=ok, reference=ref)
+    return "\n".join(lines), dict(median=med, max=worst, moved_median=med_m, moved_max=worst_m,
+                                  met=ok, reference=ref)
 
 
 def main(argv=None):

@@ -50,3 +50,37 @@ def test_bench_motion_quick_runs(real_data, capsys):
     assert out["base"]["windows_per_s"] > 0 and out["control"]["windows_per_s"] > 0
     assert out["seconds_control"] > 0 and out["seconds_reference"] > 0
     assert "RTX 4090" in capsys.readouterr().out
+
+
+def test_bench_widgets_finds_every_lesson_widget_and_moves_controls_in_range():
+    """Discovery from the lessons (no timing asserted): every `interact(` of every lesson is
+    found with a callable callback, and each moved value lies inside its control's range."""
+    import json
+    import re
+
+    bench = _load("bench_widgets")
+    widgets = bench.discover()
+    n_calls = 0
+    for p in sorted((ROOT / "lessons").glob("[0-9][0-9]_*.ipynb")):
+        nb = json.loads(p.read_text(encoding="utf-8"))
+        n_calls += sum(len(re.findall(r"(?m)^\s*(?:\w+\s*=\s*)?interact\(", "".join(c["source"])))
+                       for c in nb["cells"] if c["cell_type"] == "code")
+    assert len(widgets) == n_calls >= 10
+    for w in widgets:
+        assert callable(w.callback) and w.controls, (w.lesson, w.cell)
+        for name, c in w.controls.items():
+            moved = c.moved()
+            if c.kind == "dropdown":
+                assert moved in c.options and moved != c.value, (w.name, name)
+            else:
+                assert c.lo - 1e-12 <= moved <= c.hi + 1e-12 and moved != c.value, (w.name, name)
+
+
+def test_bench_widgets_quick_runs_and_reports(capsys, tmp_path):
+    bench = _load("bench_widgets")
+    out = bench.main(["--quick", "--json", str(tmp_path / "w.json")])
+    assert {r["callback"] for r in out["rows"]} == {"stiff_spring_demo", "stability_demo"}
+    assert all(r["warm"] > 0 for r in out["rows"]) and out["reference"] > 0
+    text = capsys.readouterr().out
+    assert "median" in text and "target" in text
+    assert (tmp_path / "w.json").stat().st_size > 100
