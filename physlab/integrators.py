@@ -60,10 +60,18 @@ class ConvergenceError(RuntimeError):
 
 
 #: :func:`simulate` raises :class:`SimulationDiverged` when a particle gets this many times
-#: farther from its start than the initial velocities and accelerations can take it.
+#: farther from its start than the initial velocities and accelerations can take it ...
 GROWTH_LIMIT = 1e3
-#: Largest ``n_steps`` :func:`simulate` accepts.
+#: ... and its displacement grew faster than any low power of time: more than this factor
+#: since the step ``2^j`` in ``(k/4, k/2]`` (``t^p`` motion grows at most ``4^p``; a blow-up
+#: grows exponentially).
+GROWTH_RATIO = 1e4
+#: Largest number of steps :func:`simulate` and :func:`integrate` accept (fail fast instead
+#: of running for days).
 MAX_STEPS = 50_000_000
+#: Largest memory (bytes) :func:`simulate` / :func:`integrate` may allocate for the stored
+#: trajectory; beyond it they refuse before allocating (use ``save_every`` / a larger dt).
+MAX_TRAJECTORY_BYTES = 2 * 1024**3
 
 
 class SimulationDiverged(FloatingPointError):
@@ -160,6 +168,48 @@ def _check_method(method, valid) -> str:
     if method not in valid:
         raise ValueError(f"unknown method {method!r}; valid methods are: {', '.join(valid)}")
     return method
+
+
+def _check_count(value, name, lo=0, hi=None) -> int:
+    """``value`` as an int in ``[lo, hi]`` (floats with integral values are accepted)."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer, float,
+                                                                     np.floating)):
+        raise TypeError(f"{name} must be an integer, got {value!r} ({type(value).__name__})")
+    if not np.isfinite(value) or int(value) != value or value < lo:
+        need = "a non-negative integer" if lo == 0 else f"an integer >= {lo}"
+        raise ValueError(f"{name} must be {need}, got {value!r}")
+    value = int(value)
+    if hi is not None and value > hi:
+        raise ValueError(f"{name} = {value:,} is more than the limit of {hi:,}")
+    return value
+
+
+def _check_tolerance(value, name) -> float:
+    """A finite float >= 0 (Newton tolerances)."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer,
+                                                                     np.floating)):
+        raise TypeError(f"{name} must be a number, got {value!r}")
+    if not np.isfinite(value) or value < 0:
+        raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
+    return float(value)
+
+
+def _check_memory(n_states, state_size, name, what_to_do):
+    """Refuse trajectories of more than :data:`MAX_TRAJECTORY_BYTES` before allocating."""
+    need = 8.0 * n_states * state_size
+    if need > MAX_TRAJECTORY_BYTES:
+        raise ValueError(f"{name}: storing {n_states:,} states of {state_size:,} numbers needs "
+                         f"{need / 1e9:.3g} GB, more than the limit of "
+                         f"{MAX_TRAJECTORY_BYTES / 1e9:.3g} GB; {what_to_do}")
+
+
+def _as_state(value, name) -> np.ndarray:
+    """``value`` as a float array; a ragged or non-numeric input is named."""
+    try:
+        return np.array(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a numeric array, got {type(value).__name__} that numpy "
+                         f"cannot turn into floats (ragged or non-numeric)") from None
 
 
 def _check_finite(name: str, a: np.ndarray) -> None:
@@ -336,7 +386,14 @@ def integrate(
     """
     _check_method(method, METHODS)
     dt = _check_dt(dt)
-    y0 = np.atleast_1d(np.asarray(y0, dtype=float))
+    if not callable(f):
+        raise TypeError(f"f must be a function f(t, y) -> (d,), got {type(f).__name__}")
+    if jac is not None and not callable(jac):
+        raise TypeError(f"jac must be None or a function jac(t, y) -> (d, d), got "
+                        f"{type(jac).__name__}")
+    tol = _check_tolerance(tol, "tol")
+    max_iter = _check_count(max_iter, "max_iter", lo=1)
+    y0 = np.atleast_1d(_as_state(y0, "y0"))
     if y0.ndim != 1:
         raise ValueError(f"y0 must be a 1-D state vector, got shape {y0.shape}; flatten it first")
     _check_finite("y0", y0)
@@ -347,7 +404,12 @@ def integrate(
     if not (np.isfinite(t0) and np.isfinite(t1)) or t1 <= t0:
         raise ValueError(f"t_span must satisfy t0 < t1 (finite), got ({t0}, {t1})")
 
-    n = int(np.ceil((t1 - t0) / dt - 1e-9))
+    n_float = np.ceil((t1 - t0) / dt - 1e-9)
+    if n_float > MAX_STEPS:
+        raise ValueError(f"t_span ({t0:g}, {t1:g}) at dt = {dt:g} is {n_float:,.0f} steps, more "
+                         f"than the limit of {MAX_STEPS:,}; use a larger dt or a shorter t_span")
+    n = int(n_float)
+    _check_memory(n + 1, y0.size, "integrate", "use a larger dt or a shorter t_span")
     t = t0 + dt * np.arange(n + 1)
     t[-1] = t1
     d = y0.size
@@ -358,7 +420,12 @@ def integrate(
     def F(tt, yy):
         nonlocal nfev
         nfev += 1
-        out = np.asarray(f(tt, yy), dtype=float)
+        raw = f(tt, yy)
+        try:
+            out = np.asarray(raw, dtype=float)
+        except (TypeError, ValueError):
+            raise ValueError(f"f(t, y) must return numbers of shape ({d},) like y0, got "
+                             f"{type(raw).__name__} {raw!r:.60}") from None
         if out.shape != (d,):
             out = out.reshape(-1)
             if out.shape != (d,):
@@ -648,6 +715,7 @@ def simulate(
     progress: bool = False,
     project=None,
     save_every: int = 1,
+    max_speed: float | None = None,
 ) -> SimulationResult:
     """Advance ``M x'' = f(x, v, t)`` by ``n_steps`` steps of size ``dt``.
 
@@ -686,28 +754,60 @@ def simulate(
     project : optional callable ``project(t_next, x, v)`` run after every step, before
         pinning; it may modify ``x`` and ``v`` (n, d) in place (kinematic rigs, contacts).
     save_every : store every ``save_every``-th state only (long runs, few frames).
+    max_speed : optional speed bound (m/s): a state faster than it counts as a blow-up
+        (callers that know their physical speed scale, e.g. a wave speed, catch blow-ups
+        earlier).
 
     Returns
     -------
     SimulationResult with ``t``, ``x``, ``v`` (the stored states: ``n_steps // save_every + 1``);
     ``newton[k]`` residual norms of step ``k``.
+
+    Raises
+    ------
+    ValueError / TypeError naming the argument for bad input (``n_steps`` above
+    :data:`MAX_STEPS`, a stored trajectory above :data:`MAX_TRAJECTORY_BYTES`);
+    :class:`SimulationDiverged` (naming the step, with the partial run) when the state stops
+    being finite, exceeds ``max_speed``, or grows like a blow-up: a particle farther from its
+    start than ``GROWTH_LIMIT · (L + |v0| τ + |a0| τ²/2)`` (``L`` the scene's extent,
+    ``τ = t - t0``) whose displacement also grew more than ``GROWTH_RATIO``-fold since step
+    ``2^j ∈ (k/4, k/2]`` — faster than any physical motion from this start;
+    :class:`ConvergenceError` when Newton fails.
     """
     _check_method(method, MECHANICAL_METHODS)
     dt = _check_dt(dt)
-    if isinstance(n_steps, bool) or not isinstance(n_steps, (int, np.integer, float)) \
-            or not np.isfinite(n_steps) or int(n_steps) != n_steps or n_steps < 0:
-        raise ValueError(f"n_steps must be a non-negative integer, got {n_steps!r}")
-    n_steps = int(n_steps)
+    n_steps = _check_count(n_steps, "n_steps")
     if n_steps > MAX_STEPS:
         raise ValueError(f"n_steps = {n_steps:,} is more than the limit of {MAX_STEPS:,}; "
                          f"use a larger dt or a shorter run")
     if newton not in ("full", "baraff_witkin"):
         raise ValueError(f"unknown newton variant {newton!r}; valid: full, baraff_witkin")
-    m = np.asarray(system.mass, dtype=float).reshape(-1)
-    x0 = np.array(x0, dtype=float)
-    v0 = np.array(v0, dtype=float)
-    if x0.ndim != 2 or x0.shape[0] != m.size:
-        raise ValueError(f"x0 must have shape (n, d) with n = {m.size} particles, got {x0.shape}")
+    if isinstance(t0, (bool, np.bool_)) or not isinstance(t0, (int, float, np.integer,
+                                                               np.floating)) \
+            or not np.isfinite(t0):
+        raise ValueError(f"t0 (start time) must be a finite number, got {t0!r}")
+    t0 = float(t0)
+    tol = _check_tolerance(tol, "tol")
+    atol = _check_tolerance(atol, "atol")
+    max_iter = _check_count(max_iter, "max_iter", lo=1)
+    save_every = _check_count(save_every, "save_every", lo=1)
+    if max_speed is not None:
+        max_speed = _check_tolerance(max_speed, "max_speed")
+        if max_speed == 0:
+            raise ValueError("max_speed must be > 0 (or None for no speed bound), got 0")
+    if project is not None and not callable(project):
+        raise TypeError(f"project must be None or a function project(t, x, v), got "
+                        f"{type(project).__name__}")
+    for attr in ("mass", "force"):
+        if not hasattr(system, attr):
+            raise TypeError(f"system must have 'mass' and 'force' (like springs.SpringSystem); "
+                            f"{type(system).__name__} has no {attr!r}")
+    m = _as_state(system.mass, "system.mass").reshape(-1)
+    x0 = _as_state(x0, "x0")
+    v0 = _as_state(v0, "v0")
+    if x0.ndim != 2 or x0.shape[0] != m.size or m.size == 0 or x0.shape[1] == 0:
+        raise ValueError(f"x0 must have shape (n, d) with n = {m.size} particles (n >= 1, "
+                         f"d >= 1), got {x0.shape}")
     if v0.shape != x0.shape:
         raise ValueError(f"v0 must have the same shape as x0 {x0.shape}, got {v0.shape}")
     _check_finite("x0", x0)
@@ -716,8 +816,10 @@ def simulate(
     fixed = _fixed_indices(system, n)
     free = np.ones(n, bool)
     free[fixed] = False
-    if np.any(m[free] <= 0):
-        raise ValueError("masses of free particles must be > 0")
+    if not np.all(np.isfinite(m)) or np.any(m[free] <= 0):
+        bad = int(np.flatnonzero(~np.isfinite(m) | (free & ~(m > 0)))[0])
+        raise ValueError(f"system.mass must be finite and > 0 for free particles, particle "
+                         f"{bad} has mass {m[bad]}")
     v0[fixed] = 0.0
     inv_m = np.zeros(n)
     inv_m[free] = 1.0 / m[free]  # pinned particles: infinite mass
@@ -726,7 +828,10 @@ def simulate(
     # Growth bound: how far a particle can get from the start at time τ with the initial
     # velocities and accelerations, R(τ) = L + |v0| τ + |a0| τ² / 2 (L: scene extent). A
     # blow-up grows exponentially and passes GROWTH_LIMIT · R within a few steps; motion
-    # that is physical stays far below it (free fall follows R exactly).
+    # that is physical stays far below it (free fall follows R exactly). Forces that start
+    # later (a drive, a stroke) may take a system past R, but then its displacement grows
+    # like a power of time; a blow-up must also grow GROWTH_RATIO-fold since the step
+    # 2^j in (k/4, k/2] (polynomial t^p motion: at most 4^p).
     with np.errstate(all="ignore"):
         a0 = np.asarray(system.force(x0, v0, t0), dtype=float)[free] * (1.0 / m[free])[:, None]
     L = max(float(np.ptp(x0, axis=0).max()) if n > 1 else 0.0, float(np.abs(x0).max()), 1e-3)
@@ -735,16 +840,17 @@ def simulate(
 
     if method == "implicit_euler" and not isinstance(solver, LinearSolver):
         solver = LinearSolver(solver)
-    if int(save_every) != save_every or save_every < 1:
-        raise ValueError(f"save_every must be a positive integer, got {save_every!r}")
-    save_every = int(save_every)
     n_saved = n_steps // save_every + 1
+    _check_memory(2 * n_saved, n * d, "simulate",
+                  f"store fewer states (save_every = {save_every} now), use a larger dt or a "
+                  f"shorter run")
     t = t0 + dt * save_every * np.arange(n_saved)
     X = np.empty((n_saved, n, d))
     V = np.empty((n_saved, n, d))
     X[0], V[0] = x0, v0
     x, v, v_prev = x0, v0, None
     newton_hist = []
+    marks = [(0, 0.0)]  # (step 0 or 2^j, largest displacement from x0 then)
 
     def force(x, v, tt):
         fo = np.asarray(system.force(x, v, tt), dtype=float)
@@ -778,17 +884,29 @@ def simulate(
                 project(tk + dt, xn, vn)  # kinematic constraints, contacts: in place
             vn[fixed] = 0.0
             xn[fixed] = x0[fixed]
-        reach = GROWTH_LIMIT * (L + v0_max * (tk + dt - t0) + 0.5 * a0_max * (tk + dt - t0) ** 2)
-        finite = np.all(np.isfinite(xn)) and np.all(np.isfinite(vn))
-        grown = finite and float(np.abs(xn - x0).max(initial=0.0)) > reach
-        if not finite or grown:
+        tau = tk + dt - t0
+        reach = GROWTH_LIMIT * (L + v0_max * tau + 0.5 * a0_max * tau**2)
+        finite = bool(np.all(np.isfinite(xn)) and np.all(np.isfinite(vn)))
+        moved = float(np.abs(xn - x0).max(initial=0.0)) if finite else np.inf
+        if k + 1 == 2 * marks[-1][0] or k == 0:           # displacement at steps 1, 2, 4, 8 ...
+            marks.append((k + 1, moved))
+        ref_step, ref_moved = marks[-2]                   # the step 2^j in ((k+1)/4, (k+1)/2]
+        grown = moved > reach and moved > GROWTH_RATIO * ref_moved
+        fast = finite and max_speed is not None and float(np.abs(vn).max(initial=0.0)) > max_speed
+        if not finite or grown or fast:
             kept = k // save_every + 1
             partial = SimulationResult(t[:kept].copy(), X[:kept].copy(), V[:kept].copy(),
                                        method, dt, newton_hist)
-            reason = "the state is no longer finite" if not finite else (
-                f"a particle moved {float(np.abs(xn - x0).max()):.3g} from its start, more "
-                f"than {GROWTH_LIMIT:g}× what the initial velocities and forces allow "
-                f"({reach / GROWTH_LIMIT:.3g})")
+            if not finite:
+                reason = "the state is no longer finite"
+            elif grown:
+                reason = (f"a particle moved {moved:.3g} from its start, more than "
+                          f"{GROWTH_LIMIT:g}× what the initial velocities and forces allow "
+                          f"({reach / GROWTH_LIMIT:.3g}), {moved / max(ref_moved, 1e-300):.3g}× "
+                          f"farther than at step {ref_step}")
+            else:
+                reason = (f"a speed of {float(np.abs(vn).max()):.3g} exceeds max_speed = "
+                          f"{max_speed:.3g}")
             raise SimulationDiverged(k + 1, tk, dt, method, partial, reason)
         v_prev, x, v = v, xn, vn
         if (k + 1) % save_every == 0:
