@@ -15,10 +15,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from physlab import _check
-
-from physlab import fem
-from physlab.integrators import SimulationDiverged
+from physlab import _check, fem
+from physlab.integrators import MAX_TRAJECTORY_BYTES, SimulationDiverged
 from physlab.integrators import simulate as integrate_mechanical
 
 from .collisions import resolve_body_contacts, resolve_half_planes
@@ -28,17 +26,35 @@ __all__ = ["simulate", "Animation", "SceneSystem", "UnstableTimeStep", "safe_tim
            "measured_stable_dt"]
 
 
-class UnstableTimeStep(FloatingPointError):
-    """The explicit integration blew up; ``safe_dt`` is a CFL-like step that should work."""
+class UnstableTimeStep(SimulationDiverged):
+    """The run blew up (non-finite state, speeds beyond any physical motion of the scene, or
+    blow-up growth — see :func:`physlab.integrators.simulate`); ``safe_dt`` is a CFL-like
+    step (s) that should work.
 
-    def __init__(self, message, safe_dt, step=None):
-        super().__init__(message)
-        self.safe_dt, self.step = safe_dt, step
+    As a :class:`~physlab.integrators.SimulationDiverged` it names the ``step`` (``1`` = the
+    first), its start time ``t`` (s), the ``dt`` and ``method`` in use and carries the partial
+    run: ``result`` is an :class:`Animation` of the frames stored before the blow-up."""
+
+    def __init__(self, message, safe_dt, step=None, t=None, dt=None, method=None, result=None):
+        FloatingPointError.__init__(self, message)
+        self.safe_dt, self.step, self.t, self.dt = safe_dt, step, t, dt
+        self.method, self.result, self.reason = method, result, message
+
+
+def _check_scene(scene):
+    from .scene import Scene
+
+    if not isinstance(scene, Scene):
+        raise TypeError(f"scene must be a physlab.physanimator.Scene, got "
+                        f"{type(scene).__name__} (load JSON with Scene.from_json)")
+    return scene
 
 
 def safe_time_step(scene, safety=0.5):
     """CFL-like stable step (s) for the scene: the smallest over bodies of
-    ``safety · h_min / c`` (:func:`physlab.fem.stable_time_step`)."""
+    ``safety · h_min / c`` (:func:`physlab.fem.stable_time_step`); ``safety`` in (0, 1]."""
+    _check_scene(scene)
+    safety = _check.number(safety, "safety", lo=0, hi=1, lo_open=True)
     return min(fem.stable_time_step(b.mesh.X, b.mesh.tris, b.material.E, b.material.nu,
                                     b.material.rho, safety) for b in scene.bodies)
 
@@ -49,8 +65,9 @@ def measured_stable_dt(scene, duration=0.5, rel_tol=0.05, method="semi_implicit_
     bisection (in log dt) to ``rel_tol``. The CFL estimate is conservative; this says by how
     much, for this scene. Returns ``(dt_stable, dt_estimate)``; ``dt_stable`` is capped at
     64 × the estimate."""
-    import warnings
-
+    _check_scene(scene)
+    duration = _check.number(duration, "duration (s)", lo=0, lo_open=True)
+    rel_tol = _check.number(rel_tol, "rel_tol", lo=1e-6, hi=1.0)
     est = safe_time_step(scene)
 
     def stable(dt):
@@ -194,22 +211,37 @@ def simulate(scene, duration, dt=1e-3, fps=24, progress=True, check_dt=True,
     materials and steps far above the explicit limit).
 
     Frames are stored every ``round(1 / (fps dt))`` steps. With ``check_dt`` a step larger
-    than the CFL estimate warns, and a blow-up (non-finite state, or speeds beyond any
-    physical motion of the scene) raises :class:`UnstableTimeStep` naming a safe ``dt``.
-    Returns an :class:`Animation`.
+    than the CFL estimate warns, and speeds beyond any physical motion of the scene
+    (``max(20 c, 50 |canvas|, 10 |v0|)``, ``c`` the fastest wave speed, px/s) count as a
+    blow-up. A blow-up (that, a non-finite state, or blow-up growth of the positions) raises
+    :class:`UnstableTimeStep` naming the step and a safe ``dt``, with the frames stored before
+    it. Returns an :class:`Animation`.
+
+    Arguments are checked before anything runs: ``scene`` a :class:`Scene`, ``duration`` (s)
+    and ``dt`` (s) finite and > 0, ``0 < fps <= 1000``, at most :data:`MAX_STEPS` steps and
+    at most 2 GB of stored frames (ValueError / TypeError naming the argument).
     """
+    _check_scene(scene)
     duration = _check.number(duration, "duration (s)", lo=0, lo_open=True)
     dt = _check.number(dt, "dt (s)", lo=0, lo_open=True)
     fps = _check.number(fps, "fps", lo=0, hi=1000, lo_open=True)
+    if method not in ("semi_implicit_euler", "implicit_euler"):
+        raise ValueError(f"unknown method {method!r}; valid: semi_implicit_euler, implicit_euler")
     if duration / dt > MAX_STEPS:
         raise ValueError(f"duration {duration:g} s at dt = {dt:g} s is {duration / dt:,.0f} "
                          f"steps, more than the limit of {MAX_STEPS:,}; shorten the run or use "
                          f"a larger dt (or method='implicit_euler')")
+    n_vertices = sum(len(b.mesh.X) for b in scene.bodies)
+    n_frames = duration * min(fps, 1.0 / dt) + 1
+    need = 2 * 2 * 8 * n_frames * n_vertices           # positions and velocities, float64
+    if need > MAX_TRAJECTORY_BYTES:
+        raise ValueError(f"{n_frames:,.0f} frames of {n_vertices:,} vertices need "
+                         f"{need / 1e9:.3g} GB, more than the limit of "
+                         f"{MAX_TRAJECTORY_BYTES / 1e9:.3g} GB; lower fps ({fps:g} now), shorten "
+                         f"the run or use coarser meshes")
     system = SceneSystem(scene)
     system.dt = dt
     safe = safe_time_step(scene)
-    if method not in ("semi_implicit_euler", "implicit_euler"):
-        raise ValueError(f"unknown method {method!r}; valid: semi_implicit_euler, implicit_euler")
     if check_dt and method == "semi_implicit_euler" and dt > 2 * safe:
         warnings.warn(f"dt = {dt:g} s is above the stability estimate {safe:.2g} s "
                       "(CFL: smallest triangle / wave speed); the run may blow up", stacklevel=2)
@@ -221,15 +253,7 @@ def simulate(scene, duration, dt=1e-3, fps=24, progress=True, check_dt=True,
         c_max = max(c_max, float(np.sqrt((lam + 2 * mu) / b.material.rho)))
     v0_max = max([float(np.hypot(*b.velocity)) for b in scene.bodies]
                  + [r.amplitude * r.frequency for r in scene.rigs if isinstance(r, WavyRig)])
-    v_limit = max(20 * c_max, 50 * float(np.hypot(*scene.size)), 10 * v0_max)
-
-    def project(t, x, v):
-        system.project(t, x, v)
-        if check_dt and np.max(np.abs(v)) > v_limit:
-            raise UnstableTimeStep(
-                f"the simulation blew up at t = {t:.4g} s (speeds above {v_limit:.3g} px/s): "
-                f"use dt <= {safe:.2g} s (CFL estimate from the smallest triangle and the "
-                f"wave speed), or soften the material", safe)
+    v_limit = max(20 * c_max, 50 * float(np.hypot(*scene.size)), 10 * v0_max)  # px/s
 
     x0 = system.X.copy()
     v0 = np.concatenate([np.broadcast_to(np.asarray(b.velocity, float), (len(b.mesh.X), 2))
@@ -240,13 +264,27 @@ def simulate(scene, duration, dt=1e-3, fps=24, progress=True, check_dt=True,
         # the scene's momentum scale (total mass moving one canvas diagonal per second)
         atol = 1e-9 * system.mass.sum() * float(np.hypot(*scene.size))
         run = integrate_mechanical(system, x0, v0, dt, n_steps, method=method, atol=atol,
-                                   max_iter=50, project=project, save_every=every,
-                                   progress=progress)
+                                   max_iter=50, project=system.project, save_every=every,
+                                   progress=progress, max_speed=v_limit if check_dt else None)
     except SimulationDiverged as err:
-        raise UnstableTimeStep(f"the simulation blew up at step {err.step} (t = {err.t:.4g} s): "
-                               f"use dt <= {safe:.2g} s (CFL estimate)", safe, err.step) from None
-    xs = [run.x[:, system.body_slice(i)] for i in range(len(scene.bodies))]
+        partial = _animation(err.result, system, scene, dt, every, dict(
+            steps=err.step - 1, steps_per_frame=every, contacts=system.contacts, method=method,
+            seconds=time.perf_counter() - t0, safe_dt=safe, vertices=len(x0),
+            triangles=len(system.tris)))
+        reason = err.reason.replace("max_speed", "the scene's speed limit") + " px/s" \
+            if "max_speed" in err.reason else err.reason
+        raise UnstableTimeStep(
+            f"the simulation blew up at step {err.step} (t = {err.t:.4g} s, dt = {dt:g} s, "
+            f"method '{method}'): {reason}; use dt <= {safe:.2g} s (CFL estimate from the "
+            f"smallest triangle and the wave speed), soften the material or use "
+            f"method='implicit_euler'", safe, err.step, err.t, dt, method, partial) from None
     stats = dict(steps=n_steps, steps_per_frame=every, contacts=system.contacts, method=method,
                  seconds=time.perf_counter() - t0, safe_dt=safe, vertices=len(x0),
                  triangles=len(system.tris))
+    return _animation(run, system, scene, dt, every, stats)
+
+
+def _animation(run, system, scene, dt, every, stats):
+    """An :class:`Animation` of an integrator result: per-body slices of ``run.x``."""
+    xs = [run.x[:, system.body_slice(i)] for i in range(len(scene.bodies))]
     return Animation(run.t, xs, scene, dt, 1.0 / (every * dt), stats)
