@@ -20,8 +20,11 @@ __all__ = ["FixedRig", "WavyRig", "wavy_rig_position"]
 
 
 def wavy_rig_position(X_r, s, f, d_r, t):
-    """Eq. (10): ``x_r(t) = X_r + s sin(f t) d_r`` (``X_r`` (..., 2); ``d_r`` normalised)."""
-    d = np.asarray(d_r, dtype=float)
+    """Eq. (10): ``x_r(t) = X_r + s sin(f t) d_r`` (``X_r`` (..., 2) px; amplitude ``s`` px,
+    frequency ``f`` rad/s, ``t`` s; ``d_r`` (2,) is normalised here and must be non-zero)."""
+    d = _check.vector(d_r, "d_r (direction)")
+    if not np.linalg.norm(d) > 0:
+        raise ValueError(f"d_r (direction) must be a non-zero vector, got {d_r!r}")
     d = d / np.linalg.norm(d)
     return np.asarray(X_r, dtype=float) + s * np.sin(f * t) * d  # Eq. (10)
 
@@ -47,6 +50,11 @@ class FixedRig:
             if v.ndim != 1 or (v.size and not np.issubdtype(v.dtype, np.integer)):
                 raise ValueError(f"{kind} vertices must be a list of vertex indices, got "
                                  f"{self.vertices!r}")
+            if v.size == 0:
+                raise ValueError(f"{kind} vertices is empty: list the vertex indices to rig, or "
+                                 f"pass center and radius instead")
+            if v.min() < 0:
+                raise ValueError(f"{kind} vertices must be indices >= 0, got {int(v.min())}")
             self.vertices = tuple(int(i) for i in v)
         if self.vertices is None and (self.center is None or self.radius is None):
             raise ValueError(f"{kind} needs either vertices or center and radius")
@@ -58,7 +66,9 @@ class FixedRig:
             if idx.size == 0:
                 raise ValueError("a rig with an empty vertex list selects nothing")
             if idx.min() < 0 or idx.max() >= len(X):
-                raise ValueError(f"rig vertices outside 0..{len(X) - 1}")
+                bad = int(idx[(idx < 0) | (idx >= len(X))][0])
+                raise ValueError(f"rig vertex {bad} is outside 0..{len(X) - 1} (the body has "
+                                 f"{len(X)} vertices)")
             return idx
         if self.center is None or self.radius is None:
             raise ValueError("a rig needs either vertices or center and radius")
@@ -99,6 +109,6 @@ class WavyRig(FixedRig):
     def offset(self, t):
         d = np.asarray(self.direction, dtype=float)
         d = d / np.linalg.norm(d)
-        disp = wavy_rig_position(np.zeros(2), self.amplitude, self.frequency, d, t)  # Eq. (10)
+        disp = self.amplitude * np.sin(self.frequency * t) * d  # Eq. (10), checked once above
         vel = self.amplitude * self.frequency * np.cos(self.frequency * t) * d
         return disp, vel

@@ -107,6 +107,8 @@ class Body:
         self.offset = tuple(_check.vector(self.offset, "Body offset"))
         self.velocity = tuple(_check.vector(self.velocity, "Body velocity"))
         self.depth = _check.number(self.depth, "Body depth")
+        if not isinstance(self.name, str):
+            raise TypeError(f"Body name must be a string, got {self.name!r}")
         if self.texture is not None:
             t = np.asarray(self.texture)
             if t.ndim != 3 or t.shape[2] not in (3, 4) or t.dtype != np.uint8:
@@ -222,6 +224,13 @@ class Scene:
     size: tuple = (512, 512)
 
     def __post_init__(self):
+        for name in ("bodies", "strokes", "rigs"):
+            value = getattr(self, name)
+            if not isinstance(value, (list, tuple)):
+                raise TypeError(f"{name} must be a list, got {type(value).__name__}"
+                                + (" (wrap a single Body in a list: [body])"
+                                   if isinstance(value, Body) else ""))
+            setattr(self, name, list(value))
         if not self.bodies:
             raise ValueError("a scene needs at least one body")
         for i, b in enumerate(self.bodies):
@@ -253,9 +262,15 @@ class Scene:
             raise ValueError(f"size must be (W, H) whole pixels in 1..{MAX_CANVAS}, got "
                              f"{self.size!r}")
         self.size = (int(w), int(h))
-        for r in self.rigs:
+        for i, r in enumerate(self.rigs):
             if not 0 <= r.body < len(self.bodies):
-                raise ValueError(f"rig refers to body {r.body}, but the scene has {len(self.bodies)}")
+                raise ValueError(f"rigs[{i}] refers to body {r.body}, but the scene has "
+                                 f"{len(self.bodies)} (indices 0..{len(self.bodies) - 1})")
+            try:                                   # selects something on that body (cheap)
+                r.select(self.bodies[r.body].X_canvas)
+            except ValueError as e:
+                raise ValueError(f"rigs[{i}] (on body {r.body}, "
+                                 f"'{self.bodies[r.body].name}'): {e}") from None
 
     def half_planes(self):
         """Ground and walls as half-planes ``(normal, c)`` with ``normal · x >= c`` allowed."""

@@ -16,7 +16,7 @@ import numpy as np
 
 from physlab import _check
 
-from .flow import FLOW_KINDS, flow_force
+from .flow import FLOW_KINDS, _flow_force
 
 __all__ = ["EnergyStroke"]
 
@@ -43,10 +43,14 @@ class EnergyStroke:
     _cum: np.ndarray = field(init=False, repr=False)
 
     def __post_init__(self):
-        self.points = np.asarray(self.points, dtype=float)
+        try:
+            self.points = np.asarray(self.points, dtype=float)
+        except (TypeError, ValueError):
+            raise ValueError(f"stroke points must be a (k, 2) list of numbers, got "
+                             f"{self.points!r:.80}") from None
         if self.points.ndim != 2 or self.points.shape[1] != 2 or len(self.points) < 2:
             raise ValueError(f"stroke points must have shape (k >= 2, 2), got {self.points.shape}")
-        if self.kind not in FLOW_KINDS:
+        if not isinstance(self.kind, str) or self.kind not in FLOW_KINDS:
             raise ValueError(f"unknown stroke kind {self.kind!r}; valid kinds are: {', '.join(FLOW_KINDS)}")
         if not np.all(np.isfinite(self.points)):
             k = int(np.flatnonzero(~np.isfinite(self.points).all(1))[0])
@@ -101,7 +105,7 @@ class EnergyStroke:
         q = np.asarray(q, dtype=float)
         f = np.zeros_like(q)
         for p, d in zip(*self.particles(t)):
-            f += flow_force(self.kind, p, q, self.strength, self.range, d)
+            f += _flow_force(self.kind, p, q, self.strength, self.range, d)  # Eqs. (8)–(9)
         return f
 
     def to_dict(self):
