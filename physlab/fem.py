@@ -46,8 +46,10 @@ def lame_parameters(E, nu, plane="strain"):
     ``μ = E / (2 (1 + ν))``, ``λ = E ν / ((1 + ν)(1 - 2ν))``.
     ``plane="stress"`` (thin sheets): ``λ = E ν / (1 - ν²)``. Arrays broadcast.
     """
-    E = np.asarray(E, dtype=float)
-    nu = np.asarray(nu, dtype=float)
+    if plane not in ("strain", "stress"):
+        raise ValueError(f"plane must be 'strain' or 'stress', got {plane!r}")
+    E = _numbers(E, "Young's modulus E")
+    nu = _numbers(nu, "Poisson ratio nu")
     if not (np.all(np.isfinite(E)) and np.all(np.isfinite(nu))):
         raise ValueError(f"Young's modulus and Poisson ratio must be finite, got E = {E}, "
                          f"nu = {nu}")
@@ -58,11 +60,35 @@ def lame_parameters(E, nu, plane="strain"):
     mu = E / (2 * (1 + nu))
     if plane == "strain":
         lam = E * nu / ((1 + nu) * (1 - 2 * nu))
-    elif plane == "stress":
-        lam = E * nu / (1 - nu**2)
     else:
-        raise ValueError(f"plane must be 'strain' or 'stress', got {plane!r}")
+        lam = E * nu / (1 - nu**2)
     return (float(mu), float(lam)) if mu.ndim == 0 else (mu, lam)
+
+
+def _numbers(value, name):
+    """``value`` as a float array; TypeError naming ``name`` for non-numeric input."""
+    if isinstance(value, (str, bytes)):
+        raise TypeError(f"{name} must be a number or an array of numbers, got {value!r}")
+    try:
+        return np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise TypeError(f"{name} must be a number or an array of numbers, got "
+                        f"{type(value).__name__}") from None
+
+
+def _per_triangle(value, name, T, lo=None, lo_open=True):
+    """Scalar or (T,) material parameter as a finite (T,) float array (> ``lo``, or >= ``lo``
+    with ``lo_open=False``, if given)."""
+    a = _numbers(value, name)
+    if a.ndim and a.shape != (T,):
+        raise ValueError(f"{name} must be a scalar or shape ({T},) (one per triangle), got "
+                         f"shape {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"{name} must be finite, got {value!r:.80}")
+    if lo is not None and np.any(a <= lo if lo_open else a < lo):
+        raise ValueError(f"{name} must be {'>' if lo_open else '>='} {lo:g}, got min "
+                         f"{float(a.min()):g}")
+    return np.broadcast_to(a, (T,)).copy()
 
 
 def _edge_matrices(P, tris):
@@ -72,10 +98,13 @@ def _edge_matrices(P, tris):
 
 
 def _check_mesh(X, tris):
-    X = np.asarray(X, dtype=float)
+    X = _numbers(X, "X (rest positions)")
     tris = np.asarray(tris)
     if X.ndim != 2 or X.shape[1] != 2:
         raise ValueError(f"X must have shape (n, 2), got {X.shape}")
+    if not np.all(np.isfinite(X)):
+        bad = int(np.flatnonzero(~np.isfinite(X).all(1))[0])
+        raise ValueError(f"X (rest positions) must be finite, vertex {bad} is {X[bad].tolist()}")
     if tris.ndim != 2 or tris.shape[1] != 3 or not np.issubdtype(tris.dtype, np.integer):
         raise ValueError(f"tris must be an int array of shape (T, 3), got {tris.dtype} {tris.shape}")
     if tris.size and (tris.min() < 0 or tris.max() >= len(X)):
@@ -246,9 +275,7 @@ def lumped_masses(X, tris, rho):
     """Lumped vertex masses ``m_i = Σ_{t ∋ i} ρ_t V_t / 3`` (n,) — Eq. (3). ``rho`` scalar or (T,)."""
     X, tris = _check_mesh(X, tris)
     _, V = rest_shape(X, tris)
-    rho = np.broadcast_to(np.asarray(rho, dtype=float), V.shape)
-    if np.any(rho <= 0):
-        raise ValueError("density rho must be > 0")
+    rho = _per_triangle(rho, "density rho", len(V), lo=0)
     w = np.repeat(rho * V / 3.0, 3)  # Eq. (3)
     return np.bincount(tris.reshape(-1), w, len(X))
 
@@ -256,10 +283,17 @@ def lumped_masses(X, tris, rho):
 def stable_time_step(X, tris, E, nu, rho, safety=0.5):
     """CFL-like estimate of the largest stable explicit step (s): ``safety · h_min / c`` with
     ``h_min`` the smallest triangle height and ``c = sqrt((λ + 2μ)/ρ)`` the dilatational wave
-    speed. Units follow the mesh (pixels → px/s)."""
+    speed. Units follow the mesh (pixels → px/s). ``E``, ``nu``, ``rho`` scalars or (T,);
+    ``safety`` in (0, 1]."""
     X, tris = _check_mesh(X, tris)
+    if isinstance(safety, bool) or not isinstance(safety, (int, float, np.integer, np.floating)) \
+            or not 0 < safety <= 1:
+        raise ValueError(f"safety must be a number in (0, 1], got {safety!r}")
+    T = len(tris)
+    E = _per_triangle(E, "Young's modulus E", T, lo=0)
+    rho = _per_triangle(rho, "density rho", T, lo=0)
     mu, lam = lame_parameters(np.max(E), nu)
-    c = np.sqrt((lam + 2 * mu) / np.min(rho))
+    c = float(np.max(np.sqrt((lam + 2 * mu) / np.min(rho))))  # fastest wave speed
     _, V = rest_shape(X, tris)
     e = np.stack([X[tris[:, 1]] - X[tris[:, 0]], X[tris[:, 2]] - X[tris[:, 1]],
                   X[tris[:, 0]] - X[tris[:, 2]]], 1)
@@ -285,8 +319,8 @@ class CorotatedFEM:
         Dm_inv, V = rest_shape(X, tris)
         self.X, self.tris, self.n = X, tris.astype(np.intp), len(X)
         self.V = V
-        self.mu = np.broadcast_to(np.asarray(mu, dtype=float), V.shape).copy()
-        self.lam = np.broadcast_to(np.asarray(lam, dtype=float), V.shape).copy()
+        self.mu = _per_triangle(mu, "mu (Lamé μ)", len(V), lo=0, lo_open=False)
+        self.lam = _per_triangle(lam, "lam (Lamé λ)", len(V))
         self._B = [np.ascontiguousarray(Dm_inv[:, i, j]) for i in range(2) for j in range(2)]
         self._muV = 2 * self.mu * V
         self._lamV = self.lam * V
