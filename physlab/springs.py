@@ -23,11 +23,14 @@ between two variable end points splits its force equally and oppositely between 
 from __future__ import annotations
 
 import numpy as np
-
-from physlab import _check
 import scipy.sparse as sp
 
+from physlab import _check
+
 __all__ = ["SpringSystem", "hanging_spring", "chain", "cloth_grid", "soft_box", "grid_edges"]
+
+#: Largest number of particles the scene builders make (fail fast instead of swapping).
+MAX_PARTICLES = 1_000_000
 
 
 class SpringSystem:
@@ -55,13 +58,25 @@ class SpringSystem:
 
     def __init__(self, X, edges, k, rest_length=None, mass=1.0, damping=0.0, fixed=(),
                  gravity=None, spring_damping=0.0, ground=None, ground_stiffness=1e4):
-        X = np.array(X, dtype=float)
+        try:
+            X = np.array(X, dtype=float)
+        except (TypeError, ValueError):
+            raise ValueError(f"X (rest positions) must be an (n, 2) or (n, 3) array of numbers, "
+                             f"got {type(X).__name__} {X!r:.60}") from None
         if X.ndim != 2 or X.shape[1] not in (2, 3):
             raise ValueError(f"X must have shape (n, 2) or (n, 3), got {X.shape}")
         if not np.all(np.isfinite(X)):
-            raise ValueError("X contains NaN or inf")
+            bad = int(np.flatnonzero(~np.isfinite(X).all(1))[0])
+            raise ValueError(f"X contains NaN or inf (particle {bad}: {X[bad].tolist()})")
         n, d = X.shape
-        edges = np.array(edges)
+        try:
+            edges = np.array(edges)
+            if edges.dtype == object or not (edges.size == 0 or np.issubdtype(edges.dtype,
+                                                                               np.number)):
+                raise ValueError
+        except ValueError:
+            raise ValueError(f"edges must be an (E, 2) array of particle indices, got "
+                             f"{edges!r:.60}") from None
         if edges.size == 0:
             edges = edges.reshape(0, 2)
         if edges.ndim != 2 or edges.shape[1] != 2:
@@ -86,15 +101,22 @@ class SpringSystem:
         self.rest_length = self._per_edge("rest_length", rest_length, E)
         self.spring_damping = self._per_edge("spring_damping", spring_damping, E)
 
-        mass = np.asarray(mass, dtype=float)
+        mass = self._floats("mass", mass)
         mass = np.full(n, float(mass)) if mass.ndim == 0 else mass.reshape(-1).copy()
         if mass.shape != (n,):
             raise ValueError(f"mass must be a scalar or shape ({n},), got {mass.shape}")
         if not np.all(np.isfinite(mass)) or np.any(mass < 0):
-            raise ValueError("masses must be finite and >= 0 (negative mass given)")
-        self.fixed = np.unique(np.asarray(fixed, dtype=int).reshape(-1))
+            i = int(np.flatnonzero(~(np.isfinite(mass) & (mass >= 0)))[0])
+            kind = "negative mass" if mass[i] < 0 else "non-finite mass"
+            raise ValueError(f"masses must be finite and >= 0: particle {i} has a {kind} "
+                             f"{mass[i]}")
+        fixed = self._floats("fixed", fixed).reshape(-1)
+        if np.any(fixed != np.round(fixed)):
+            raise ValueError(f"fixed must hold integer particle indices, got {fixed.tolist()!r:.60}")
+        self.fixed = np.unique(fixed.astype(int))
         if self.fixed.size and (self.fixed.min() < 0 or self.fixed.max() >= n):
-            raise ValueError(f"fixed refers to particles outside 0..{n - 1}")
+            raise ValueError(f"fixed refers to particles outside 0..{n - 1}: "
+                             f"{self.fixed[(self.fixed < 0) | (self.fixed >= n)].tolist()}")
         free = np.ones(n, bool)
         free[self.fixed] = False
         if np.any(mass[free] <= 0):
@@ -104,7 +126,7 @@ class SpringSystem:
         self.damping = _check.number(damping, "damping γ (1/s)", lo=0)
         if gravity is None:
             gravity = (0.0, -9.81) if d == 2 else (0.0, -9.81, 0.0)
-        self.gravity = np.asarray(gravity, dtype=float).reshape(-1)
+        self.gravity = self._floats("gravity", gravity).reshape(-1)
         if self.gravity.shape != (d,):
             raise ValueError(f"gravity must have {d} components for {d}-D particles, got {gravity!r}")
         if not np.all(np.isfinite(self.gravity)):
@@ -114,8 +136,16 @@ class SpringSystem:
         self._pattern = None
 
     @staticmethod
+    def _floats(name, value):
+        try:
+            return np.asarray(value, dtype=float)
+        except (TypeError, ValueError):
+            raise ValueError(f"{name} must be a number or an array of numbers, got "
+                             f"{value!r:.60}") from None
+
+    @staticmethod
     def _per_edge(name, value, E):
-        a = np.asarray(value, dtype=float)
+        a = SpringSystem._floats(name, value)
         a = np.full(E, float(a)) if a.ndim == 0 else a.reshape(-1).copy()
         if a.shape != (E,):
             raise ValueError(f"{name} must be a scalar or shape ({E},) (one per edge), got {a.shape}")
@@ -290,7 +320,10 @@ def hanging_spring(anchor=(0.0, 0.0), L=1.0, k=100.0, m=1.0, damping=0.0, g=9.81
 
     Static equilibrium: ``x* = x̄0 - (0, L + m g / k)``.
     """
-    anchor = np.asarray(anchor, dtype=float).reshape(2)
+    anchor = _check.vector(anchor, "anchor")
+    L = _check.number(L, "L (rest length, m)", lo=0, lo_open=True)
+    m = _check.number(m, "m (mass, kg)", lo=0, lo_open=True)
+    g = _check.number(g, "g (gravity, m/s²)")
     X = np.stack([anchor, anchor + (0.0, -L)])
     return SpringSystem(X, [[0, 1]], k=k, rest_length=L, mass=[m, m], damping=damping,
                         fixed=[0], gravity=(0.0, -g))
@@ -303,17 +336,28 @@ def chain(n_particles=10, length=1.0, k=500.0, total_mass=1.0, damping=0.0, pin=
 
     ``pin``: ``"left"`` (first particle fixed), ``"both"`` (both ends) or ``"none"``.
     """
-    if n_particles < 2:
-        raise ValueError("a chain needs at least 2 particles")
+    n_particles = _check.number(n_particles, "n_particles", lo=2, hi=MAX_PARTICLES, integer=True)
+    length = _check.number(length, "length (m)", lo=0, lo_open=True)
+    total_mass = _check.number(total_mass, "total_mass (kg)", lo=0, lo_open=True)
     X = np.zeros((n_particles, 2))
     X[:, 0] = np.linspace(0.0, length, n_particles)
-    X += np.asarray(anchor, float)
+    X += _check.vector(anchor, "anchor")
     edges = np.stack([np.arange(n_particles - 1), np.arange(1, n_particles)], 1)
     fixed = {"left": [0], "both": [0, n_particles - 1], "none": []}.get(pin)
     if fixed is None:
         raise ValueError(f"unknown pin {pin!r}; valid: left, both, none")
     return SpringSystem(X, edges, k=k, mass=total_mass / n_particles, damping=damping,
                         fixed=fixed, spring_damping=spring_damping)
+
+
+def _grid_size(nx, ny, what):
+    """``(nx, ny)`` as whole numbers >= 2 with at most :data:`MAX_PARTICLES` particles."""
+    nx = _check.number(nx, f"{what} nx", lo=2, integer=True)
+    ny = _check.number(ny, f"{what} ny", lo=2, integer=True)
+    if nx * ny > MAX_PARTICLES:
+        raise ValueError(f"a {what} of {nx} × {ny} = {nx * ny:,} particles is more than the "
+                         f"limit of {MAX_PARTICLES:,}; use fewer particles")
+    return nx, ny
 
 
 def grid_edges(nx, ny, shear=True, bend=True):
@@ -351,10 +395,12 @@ def cloth_grid(nx=20, ny=20, width=1.0, height=1.0, k=2000.0, k_shear=None, k_be
     ``r*nx + c`` is column ``c`` of row ``r``). Shear and bend stiffness default to ``k/2``
     and ``k/10``.
     """
-    if nx < 2 or ny < 2:
-        raise ValueError("a cloth needs nx, ny >= 2")
-    if dim not in (2, 3):
-        raise ValueError(f"dim must be 2 or 3, got {dim}")
+    nx, ny = _grid_size(nx, ny, "cloth")
+    if dim not in (2, 3) or isinstance(dim, bool):
+        raise ValueError(f"dim must be 2 or 3, got {dim!r}")
+    width = _check.number(width, "width (m)", lo=0, lo_open=True)
+    height = _check.number(height, "height (m)", lo=0, lo_open=True)
+    total_mass = _check.number(total_mass, "total_mass (kg)", lo=0, lo_open=True)
     u, w = np.meshgrid(np.linspace(0, width, nx), np.linspace(0, height, ny))
     if dim == 2:
         X = np.stack([u.reshape(-1), -w.reshape(-1)], 1)
@@ -379,6 +425,12 @@ def soft_box(nx=6, ny=6, size=0.5, k=3000.0, total_mass=1.0, damping=0.1, spring
              drop_height=0.5, ground=0.0, ground_stiffness=2e4, tilt=0.3):
     """A square jelly block (lattice with structural + shear springs) held ``drop_height``
     above a penalty ground, tilted by ``tilt`` radians so it lands on a corner and tumbles."""
+    nx, ny = _grid_size(nx, ny, "soft box")
+    size = _check.number(size, "size (m)", lo=0, lo_open=True)
+    total_mass = _check.number(total_mass, "total_mass (kg)", lo=0, lo_open=True)
+    drop_height = _check.number(drop_height, "drop_height (m)")
+    tilt = _check.number(tilt, "tilt (rad)")
+    ground = _check.number(ground, "ground (height, m)")
     edges, kind = grid_edges(nx, ny, shear=True, bend=False)
     u, w = np.meshgrid(np.linspace(-size / 2, size / 2, nx), np.linspace(-size / 2, size / 2, ny))
     P = np.stack([u.reshape(-1), w.reshape(-1)], 1)

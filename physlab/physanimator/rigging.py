@@ -42,7 +42,7 @@ class FixedRig:
         kind = type(self).__name__
         self.body = _check.number(self.body, f"{kind} body (index)", lo=0, integer=True)
         if self.center is not None:
-            self.center = tuple(_check.vector(self.center, f"{kind} center"))
+            self.center = tuple(_check.vector(self.center, f"{kind} center").tolist())
         if self.radius is not None:
             self.radius = _check.number(self.radius, f"{kind} radius (px)", lo=0, lo_open=True)
         if self.vertices is not None:
@@ -104,7 +104,7 @@ class WavyRig(FixedRig):
         d = _check.vector(self.direction, "WavyRig direction")
         if not np.linalg.norm(d) > 0:
             raise ValueError(f"wavy rig direction must be a non-zero vector, got {self.direction}")
-        self.direction = tuple(d)
+        self.direction = tuple(d.tolist())
 
     def offset(self, t):
         d = np.asarray(self.direction, dtype=float)

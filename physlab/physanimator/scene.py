@@ -104,8 +104,8 @@ class Body:
         if not isinstance(self.material, Material):
             raise TypeError(f"Body material must be a Material, got "
                             f"{type(self.material).__name__}")
-        self.offset = tuple(_check.vector(self.offset, "Body offset"))
-        self.velocity = tuple(_check.vector(self.velocity, "Body velocity"))
+        self.offset = tuple(_check.vector(self.offset, "Body offset").tolist())
+        self.velocity = tuple(_check.vector(self.velocity, "Body velocity").tolist())
         self.depth = _check.number(self.depth, "Body depth")
         if not isinstance(self.name, str):
             raise TypeError(f"Body name must be a string, got {self.name!r}")
@@ -243,7 +243,7 @@ class Scene:
             if not isinstance(r, FixedRig):
                 raise TypeError(f"rigs[{i}] must be a FixedRig or WavyRig, got "
                                 f"{type(r).__name__}")
-        self.gravity = tuple(_check.vector(self.gravity, "gravity"))
+        self.gravity = tuple(_check.vector(self.gravity, "gravity").tolist())
         if self.ground is not None:
             self.ground = _check.number(self.ground, "ground")
         if self.walls is not None:

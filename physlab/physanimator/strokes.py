@@ -69,7 +69,7 @@ class EnergyStroke:
             if not np.any(d):
                 raise ValueError("stroke direction must be a non-zero vector (or None: along "
                                  "the stroke)")
-            self.direction = tuple(d)
+            self.direction = tuple(d.tolist())
         seg = np.linalg.norm(np.diff(self.points, axis=0), axis=1)
         if seg.sum() <= 0:
             raise ValueError("stroke has zero length")
