@@ -9,7 +9,7 @@ It prints a table and never asserts on time.
 
 What is measured
 ----------------
-Pairs: far pairs of :func:`physlab.datasets.inbetween_benchmark` (procedural cartoon
+Pairs: far pairs of :func:`physlab.inbetween.inbetween_benchmark` (procedural cartoon
 characters without occlusions, one limb rotating by 80–135°) at 512 × 512 px, with 9
 in-betweens (11 frames). :func:`physlab.inbetween.inbetween` runs with its defaults, and its
 ``timings`` give the stages:
@@ -59,7 +59,7 @@ def main(argv=None):
     args = _parser().parse_args(argv)
     if args.quick:
         args.size, args.frames, args.pairs = 128, 5, ["arm_swing"]
-    from physlab.datasets import inbetween_benchmark
+    from physlab.inbetween import inbetween_benchmark
     from physlab.inbetween import inbetween
 
     pairs = {p.name: p for p in inbetween_benchmark(size=args.size)}

@@ -31,7 +31,7 @@ __all__ = ["PAIR_NAMES", "PreparedPair", "prepared_pair", "PathChoice", "choose_
            "blending_demo", "foreground_box", "sequences_figure", "flow_row_figure",
            "costs_figure", "side_by_side"]
 
-#: names of :func:`physlab.datasets.inbetween_benchmark` (6 tight, then 8 far)
+#: names of :func:`physlab.inbetween.inbetween_benchmark` (6 tight, then 8 far)
 PAIR_NAMES = ("nod", "wave_small", "lean", "step", "shrug", "bounce",
               "arm_swing", "wave_hello", "side_kick", "jumping_jack", "punch", "high_knee",
               "tumble", "disco")
@@ -47,7 +47,7 @@ class PreparedPair:
 
     Attributes
     ----------
-    pair : :class:`physlab.characters.InbetweenPair`.
+    pair : :class:`physlab.inbetween.characters.InbetweenPair`.
     keys : (2, H, W, 4) uint8, the keyframes.
     result : :class:`~physlab.inbetween.pipeline.InbetweenResult` (diagonal blend, no matrix):
         ``fwd``, ``bwd`` (n, H, W, 4) float32, ``Q`` (n,), ``distortion_fwd/bwd`` (n,), ...
@@ -94,7 +94,7 @@ def prepared_pair(pair="arm_swing", size=192, n_frames=9):
 
 @functools.lru_cache(maxsize=4)
 def _prepared(name, size, n_frames):
-    from physlab.datasets import inbetween_benchmark
+    from physlab.inbetween import inbetween_benchmark
     from physlab.inbetween import inbetween
 
     pair = {p.name: p for p in inbetween_benchmark(size)}[name]

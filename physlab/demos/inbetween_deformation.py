@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from physlab import datasets
+from physlab.inbetween import characters
 from physlab.inbetween.deform import (MU, TOL, SymmetricDirichletDeformer,
                                       symmetric_dirichlet_density)
 from physlab.inbetween.plots import draw_mesh, draw_skeleton, over_white
@@ -74,13 +74,13 @@ def _check_mu(mu):
 
 # ---------------------------------------------------------------------------- template
 def character_template(size=256, style="flat", seed=0, max_area=None):
-    """The procedural character (:func:`physlab.datasets.render_character`) at its rest pose
+    """The procedural character (:func:`physlab.inbetween.render_character`) at its rest pose
     and its deformation template (:func:`physlab.inbetween.build_template`, Sec. 4.2).
 
     Parameters
     ----------
     size : int ≥ 64, image size in px (the lesson uses 256: ~160 vertices, fast solves).
-    style : one of :data:`physlab.datasets.CHARACTER_STYLES`.
+    style : one of :data:`physlab.inbetween.CHARACTER_STYLES`.
     seed : int, colours and patterns of the drawing.
     max_area : Triangle's maximum triangle area (px²) or None for the default.
 
@@ -90,8 +90,8 @@ def character_template(size=256, style="flat", seed=0, max_area=None):
     """
     from physlab.inbetween import build_template
 
-    rest = datasets.character_skeleton(size)
-    image = datasets.render_character(rest, style=style, size=size, seed=seed)
+    rest = characters.character_skeleton(size)
+    image = characters.render_character(rest, style=style, size=size, seed=seed)
     return build_template(image, rest, max_area=max_area, name=f"character ({style})")
 
 
@@ -297,7 +297,7 @@ def pose_arm(rest, shoulder_deg=-60.0, elbow_deg=-60.0):
     (degrees, positive = clockwise on screen; negative raises the arm)."""
     shoulder_deg = _check_angle(shoulder_deg, "shoulder_deg")
     elbow_deg = _check_angle(elbow_deg, "elbow_deg")
-    return datasets.pose_character(rest, left_upper_arm=shoulder_deg, left_forearm=elbow_deg)
+    return characters.pose_character(rest, left_upper_arm=shoulder_deg, left_forearm=elbow_deg)
 
 
 def deform_pose(template, pose, mu=MU):

@@ -6,8 +6,12 @@ Sobolev-preconditioned quasi-Newton with injectivity line search), :mod:`.skinni
 bounded biharmonic weights, ARAP: comparisons), :mod:`.frame_interpolation` (optical-flow frame
 interpolation, the RIFE stand-in), :mod:`.blend` (image matrix, blending costs, Dijkstra
 path), :mod:`.metrics` (PSNR, SSIM, Chamfer), :mod:`.baselines`, :mod:`.retarget` (BVH →
-drawing skeletons), :mod:`.pipeline` (:func:`inbetween`).
+drawing skeletons), :mod:`.pipeline` (:func:`inbetween`), :mod:`.characters` (procedural
+cartoon characters with ground-truth in-betweens, the benchmark).
 """
+from .characters import (ADJACENT_PARTS, CHARACTER_JOINTS, CHARACTER_PARTS, CHARACTER_STYLES,
+                         PAINT_ORDER, InbetweenPair, character_part_labels, character_skeleton,
+                         inbetween_benchmark, part_overlaps, pose_character, render_character)
 from .deform import (SymmetricDirichletDeformer, deform, symmetric_dirichlet_energy,
                      symmetric_dirichlet_gradient)
 from .pipeline import InbetweenResult, inbetween
@@ -16,4 +20,7 @@ from .template import Template, build_template
 
 __all__ = ["Skeleton", "check_compatible", "interpolate", "Template", "build_template",
            "SymmetricDirichletDeformer", "deform", "symmetric_dirichlet_energy",
-           "symmetric_dirichlet_gradient", "inbetween", "InbetweenResult"]
+           "symmetric_dirichlet_gradient", "inbetween", "InbetweenResult",
+           "CHARACTER_STYLES", "CHARACTER_JOINTS", "CHARACTER_PARTS", "ADJACENT_PARTS",
+           "PAINT_ORDER", "character_skeleton", "pose_character", "render_character",
+           "character_part_labels", "part_overlaps", "InbetweenPair", "inbetween_benchmark"]

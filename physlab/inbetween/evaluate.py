@@ -1,7 +1,7 @@
 """Ground-truth evaluation of inbetweening (the analogue of Brodt & Bessmeltsev 2024, Table 1).
 
 The paper compares its middle frames with hand-drawn in-betweens of a 1939 film. physlab
-makes its own ground truth: :func:`physlab.datasets.inbetween_benchmark` renders procedural
+makes its own ground truth: :func:`physlab.inbetween.inbetween_benchmark` renders procedural
 cartoon characters at two key poses *and at every intermediate pose*, so every in-between
 has a true answer. The methods only see the two keyframe images, their skeletons and the
 skeletal animation between them — never the renderer.
@@ -148,7 +148,7 @@ def evaluate_pairs(pairs, n_frames=11, progress=True, interpolator=None, sheets=
     ----------
     pairs : iterable of pairs with ``name``, ``kind`` ("tight"/"far"), ``keyframes()``,
         ``skeleton0``, ``skeleton1``, ``animation(n)`` and ``ground_truth(t)``
-        (:class:`physlab.characters.InbetweenPair`).
+        (:class:`physlab.inbetween.characters.InbetweenPair`).
     n_frames : int, frames per pair including both keys (9 in-betweens → 11).
     sheets : folder for a :func:`comparison_sheet` PNG per pair, or None.
     options : passed to :func:`~physlab.inbetween.pipeline.inbetween`.
@@ -334,7 +334,7 @@ def main(argv=None):
     if args.out is not None:
         args.out.mkdir(parents=True, exist_ok=True)
     if not args.skip_benchmark:
-        from ..datasets import inbetween_benchmark
+        from .characters import inbetween_benchmark
 
         pairs = inbetween_benchmark(size=args.size)
         if args.pairs is not None:

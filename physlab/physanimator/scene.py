@@ -143,9 +143,16 @@ class Body:
 
 
 def _array(value, dtype):
+    """A JSON list as a numpy array of ``dtype``; integer fields must hold whole numbers."""
     a = np.asarray(value)
-    if a.dtype == object:
+    if a.dtype == object or not (np.issubdtype(a.dtype, np.number) or a.dtype == bool):
         raise ValueError("ragged or non-numeric list")
+    if a.dtype == bool:
+        raise ValueError("a list of numbers, got true/false values")
+    if np.issubdtype(np.dtype(dtype), np.integer) and not np.issubdtype(a.dtype, np.integer):
+        if a.size and not (np.all(np.isfinite(a)) and np.all(a == np.round(a))
+                           and np.abs(a).max() < 2**62):
+            raise ValueError("indices must be whole numbers")
     return a.astype(dtype)
 
 
@@ -169,7 +176,11 @@ def _at(where, build):
     try:
         return build()
     except (ValueError, TypeError, KeyError, IndexError) as e:
-        msg = str(e) if str(e).startswith("field ") else f"field {where}: {e}"
+        msg = str(e)
+        if msg.startswith(("bodies[", "strokes[", "rigs[")):     # already names its item
+            msg = f"field {msg}"
+        elif not msg.startswith("field "):
+            msg = f"field {where}: {msg}"
         raise ValueError(msg) from None
 
 

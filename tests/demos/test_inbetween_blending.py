@@ -98,7 +98,7 @@ def test_foreground_box_and_side_by_side():
 
 
 def test_pair_names_match_the_benchmark():
-    from physlab.datasets import inbetween_benchmark
+    from physlab.inbetween import inbetween_benchmark
 
     pairs = inbetween_benchmark(64)
     assert tuple(p.name for p in pairs) == demo.PAIR_NAMES

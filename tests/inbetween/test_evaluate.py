@@ -4,7 +4,7 @@ import json
 import numpy as np
 import pytest
 
-from physlab.datasets import inbetween_benchmark
+from physlab.inbetween import inbetween_benchmark
 from physlab.inbetween import evaluate
 
 

@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 from _drawings import bar_drawing, bend
 
-from physlab.datasets import inbetween_benchmark
+from physlab.inbetween import inbetween_benchmark
 from physlab.inbetween import metrics
 from physlab.inbetween.baselines import cross_dissolve
 from physlab.inbetween.pipeline import inbetween

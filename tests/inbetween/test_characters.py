@@ -1,4 +1,4 @@
-"""physlab.characters: procedural cartoon characters with ground-truth poses."""
+"""physlab.inbetween.characters: procedural cartoon characters with ground-truth poses."""
 import subprocess
 import sys
 import time
@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from scipy import ndimage as ndi
 
-from physlab import characters as ch
+from physlab.inbetween import characters as ch
 from physlab import datasets
 from physlab.inbetween.skeleton import Skeleton, interpolate
 
@@ -320,14 +320,25 @@ def test_inbetween_pair_renders_ground_truth_along_the_animation():
 
 
 # ---------------------------------------------------------------------------- packaging
-def test_datasets_reexports_characters():
+def test_old_import_paths_work_for_one_release_and_warn():
+    import importlib
+
+    import physlab.inbetween as ib
+
     for name in ch.__all__:
-        assert name in datasets.__all__ and getattr(datasets, name) is getattr(ch, name)
+        assert getattr(ib, name) is getattr(ch, name)
+        with pytest.warns(DeprecationWarning, match=f"physlab.datasets.{name} moved"):
+            assert getattr(datasets, name) is getattr(ch, name)
+    sys.modules.pop("physlab.characters", None)
+    with pytest.warns(DeprecationWarning, match="physlab.characters moved"):
+        old = importlib.import_module("physlab.characters")
+    assert old.inbetween_benchmark is ch.inbetween_benchmark
 
 
 def test_importing_datasets_stays_light():
-    code = ("import sys, physlab.datasets, physlab.characters; "
-            "print(sorted(m for m in ('torch', 'matplotlib', 'scipy') if m in sys.modules))")
+    code = ("import sys, physlab.datasets, physlab.paint; "
+            "print(sorted(m for m in ('torch', 'matplotlib', 'scipy', 'physlab.inbetween') "
+            "if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True).stdout.strip()
     assert out == "[]"
