@@ -272,7 +272,8 @@ def elastic_stiffness(x, X, tris, mu, lam):
 
 
 def lumped_masses(X, tris, rho):
-    """Lumped vertex masses ``m_i = Σ_{t ∋ i} ρ_t V_t / 3`` (n,) — Eq. (3). ``rho`` scalar or (T,)."""
+    """Lumped vertex masses ``m_i = Σ_{t ∋ i} ρ_t V_t / 3`` (n,) — Eq. (3), the diagonal of
+    the mass matrix ``M`` of Eq. (2). ``rho`` scalar or (T,)."""
     X, tris = _check_mesh(X, tris)
     _, V = rest_shape(X, tris)
     rho = _per_triangle(rho, "density rho", len(V), lo=0)

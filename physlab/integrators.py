@@ -353,6 +353,7 @@ def integrate(
 
     ``"explicit_euler"``  ``y_{k+1} = y_k + h f_k``                          slides eq. (3)–(4)
     ``"midpoint"``        ``y_{k+1} = y_k + h f(t_k + h/2, y_k + h/2 f_k)``   2nd order, from eq. (5)
+                          with ``ÿ`` as the difference quotient of eq. (6)
     ``"heun"``            ``y_{k+1} = y_k + h/2 (f_k + f(t_{k+1}, y_k + h f_k))``
                           eq. (7) with the unknown ``ẏ_{k+1}`` predicted by an Euler step
     ``"rk4"``             classical 4th-order Runge–Kutta
@@ -717,7 +718,8 @@ def simulate(
     save_every: int = 1,
     max_speed: float | None = None,
 ) -> SimulationResult:
-    """Advance ``M x'' = f(x, v, t)`` by ``n_steps`` steps of size ``dt``.
+    """Advance ``M x'' = f(x, v, t)`` by ``n_steps`` steps of size ``dt``: Newton's law
+    ``ẍ = M⁻¹F`` (slides eq. (1)) as the first-order system ``ẏ = (v, M⁻¹F)`` (eq. (2)).
 
     Methods (``h = dt``, ``f_k = f(x_k, v_k, t_k)``):
 
