@@ -19,13 +19,25 @@ from physlab import _check
 __all__ = ["FixedRig", "WavyRig", "wavy_rig_position"]
 
 
+#: Largest coordinate (px) of a rig centre, stroke point or body vertex on the canvas: far
+#: beyond any canvas (at most 16384 px), small enough that squared distances cannot overflow.
+MAX_COORD = 1e7
+
+
+def _unit(d, name):
+    """The finite, non-zero 2-vector ``d`` scaled to length 1 (no overflow for huge ``d``)."""
+    d = _check.vector(d, name)
+    big = float(np.abs(d).max())
+    if not big > 0:
+        raise ValueError(f"{name} must be a non-zero vector, got {d.tolist()}")
+    d = d / big
+    return d / np.linalg.norm(d)
+
+
 def wavy_rig_position(X_r, s, f, d_r, t):
     """Eq. (10): ``x_r(t) = X_r + s sin(f t) d_r`` (``X_r`` (..., 2) px; amplitude ``s`` px,
     frequency ``f`` rad/s, ``t`` s; ``d_r`` (2,) is normalised here and must be non-zero)."""
-    d = _check.vector(d_r, "d_r (direction)")
-    if not np.linalg.norm(d) > 0:
-        raise ValueError(f"d_r (direction) must be a non-zero vector, got {d_r!r}")
-    d = d / np.linalg.norm(d)
+    d = _unit(d_r, "d_r (direction)")
     return np.asarray(X_r, dtype=float) + s * np.sin(f * t) * d  # Eq. (10)
 
 
@@ -42,7 +54,11 @@ class FixedRig:
         kind = type(self).__name__
         self.body = _check.number(self.body, f"{kind} body (index)", lo=0, integer=True)
         if self.center is not None:
-            self.center = tuple(_check.vector(self.center, f"{kind} center").tolist())
+            c = _check.vector(self.center, f"{kind} center")
+            if np.abs(c).max() > MAX_COORD:
+                raise ValueError(f"{kind} center must lie within ±{MAX_COORD:g} px, got "
+                                 f"{c.tolist()}")
+            self.center = tuple(c.tolist())
         if self.radius is not None:
             self.radius = _check.number(self.radius, f"{kind} radius (px)", lo=0, lo_open=True)
         if self.vertices is not None:
@@ -101,13 +117,12 @@ class WavyRig(FixedRig):
         super().__post_init__()
         self.amplitude = _check.number(self.amplitude, "WavyRig amplitude (px)")
         self.frequency = _check.number(self.frequency, "WavyRig frequency (rad/s)")
-        d = _check.vector(self.direction, "WavyRig direction")
-        if not np.linalg.norm(d) > 0:
-            raise ValueError(f"wavy rig direction must be a non-zero vector, got {self.direction}")
-        self.direction = tuple(d.tolist())
+        _unit(self.direction, "WavyRig direction")
+        self.direction = tuple(_check.vector(self.direction, "WavyRig direction").tolist())
 
     def offset(self, t):
         d = np.asarray(self.direction, dtype=float)
+        d = d / np.abs(d).max()                     # no overflow for huge components
         d = d / np.linalg.norm(d)
         disp = self.amplitude * np.sin(self.frequency * t) * d  # Eq. (10), checked once above
         vel = self.amplitude * self.frequency * np.cos(self.frequency * t) * d

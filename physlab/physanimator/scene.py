@@ -18,7 +18,7 @@ from physlab import _check
 from physlab._io import atomic_write_text
 from physlab.mesh import TriMesh
 
-from .rigging import FixedRig, WavyRig
+from .rigging import MAX_COORD, FixedRig, WavyRig
 from .strokes import EnergyStroke
 
 __all__ = ["Material", "Body", "Scene"]
@@ -100,12 +100,20 @@ class Body:
             except (TypeError, ValueError):
                 raise TypeError(f"Body mesh must be a physlab.mesh.TriMesh or an (X, tris) "
                                 f"pair, got {type(self.mesh).__name__}") from None
-            self.mesh = TriMesh(np.asarray(X, float), np.asarray(tris))
+            self.mesh = TriMesh(_vertices(X), np.asarray(tris))
         if not isinstance(self.material, Material):
             raise TypeError(f"Body material must be a Material, got "
                             f"{type(self.material).__name__}")
         self.offset = tuple(_check.vector(self.offset, "Body offset").tolist())
         self.velocity = tuple(_check.vector(self.velocity, "Body velocity").tolist())
+        far = np.abs(self.mesh.X).max(initial=0.0) + np.abs(self.offset).max()
+        if far > MAX_COORD:
+            raise ValueError(f"Body vertices must lie within ±{MAX_COORD:g} px of the canvas "
+                             f"origin (mesh X + offset reaches {far:.3g} px); check the "
+                             f"mesh units and the offset")
+        if np.abs(self.velocity).max() > MAX_COORD:
+            raise ValueError(f"Body velocity must be below {MAX_COORD:g} px/s, got "
+                             f"{list(self.velocity)}")
         self.depth = _check.number(self.depth, "Body depth")
         if not isinstance(self.name, str):
             raise TypeError(f"Body name must be a string, got {self.name!r}")
@@ -131,7 +139,7 @@ class Body:
         """Inverse of :meth:`to_dict`; ValueError naming the field (``where``) on bad data."""
         d = _fields(d, where, required=("X", "tris"),
                     optional=("name", "material", "offset", "velocity", "depth", "texture"))
-        mesh = _at(f"{where}.X/tris", lambda: TriMesh(_array(d["X"], float),
+        mesh = _at(f"{where}.X/tris", lambda: TriMesh(_vertices(_array(d["X"], float)),
                                                       _array(d["tris"], np.int64)))
         mat = _fields(d.get("material", {}), f"{where}.material",
                       optional=("E", "nu", "rho"))
@@ -140,6 +148,19 @@ class Body:
         if tex is not None:
             tex = _at(f"{where}.texture", lambda: _decode_png(tex))
         return _at(where, lambda: cls(mesh=mesh, material=Material(**mat), texture=tex, **kw))
+
+
+def _vertices(X):
+    """Mesh vertex positions (n, 2) px, finite and within ±MAX_COORD (checked before the mesh
+    is built, so no area computation overflows)."""
+    try:
+        X = np.asarray(X, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError("mesh X must be an (n, 2) array of numbers") from None
+    if X.size and np.all(np.isfinite(X)) and np.abs(X).max() > MAX_COORD:
+        raise ValueError(f"mesh X must lie within ±{MAX_COORD:g} px, got a vertex at "
+                         f"{np.abs(X).max():.3g} px; check the mesh units")
+    return X
 
 
 def _array(value, dtype):
@@ -256,9 +277,11 @@ class Scene:
                                 f"{type(r).__name__}")
         self.gravity = tuple(_check.vector(self.gravity, "gravity").tolist())
         if self.ground is not None:
-            self.ground = _check.number(self.ground, "ground")
+            self.ground = _check.number(self.ground, "ground", lo=-MAX_COORD, hi=MAX_COORD)
         if self.walls is not None:
             lo, hi = _check.vector(self.walls, "walls")
+            if max(abs(lo), abs(hi)) > MAX_COORD:
+                raise ValueError(f"walls must lie within ±{MAX_COORD:g} px, got {self.walls!r}")
             if not lo < hi:
                 raise ValueError(f"walls must be (x_min, x_max) with x_min < x_max, got "
                                  f"{self.walls!r}")
@@ -273,6 +296,20 @@ class Scene:
             raise ValueError(f"size must be (W, H) whole pixels in 1..{MAX_CANVAS}, got "
                              f"{self.size!r}")
         self.size = (int(w), int(h))
+        for i, b in enumerate(self.bodies):          # no body starts inside the ground / a wall
+            X = b.X_canvas
+            tol = 1e-6 * max(1.0, float(np.ptp(X, axis=0).max()) if len(X) else 1.0)
+            for normal, c in self.half_planes():
+                pen = c - X @ normal
+                if pen.max(initial=-np.inf) > tol:
+                    k = int(np.argmax(pen))
+                    where = (f"below the ground (y = {X[k, 1]:.4g} px > ground = "
+                             f"{self.ground:g} px; y points down)" if normal[1] else
+                             f"outside the walls (x = {X[k, 0]:.4g} px, walls = "
+                             f"{self.walls[0]:g}..{self.walls[1]:g} px)")
+                    raise ValueError(f"bodies[{i}] ('{b.name}') starts {where} at vertex {k}; "
+                                     f"move the body (offset) or the "
+                                     f"{'ground' if normal[1] else 'walls'}")
         for i, r in enumerate(self.rigs):
             if not 0 <= r.body < len(self.bodies):
                 raise ValueError(f"rigs[{i}] refers to body {r.body}, but the scene has "

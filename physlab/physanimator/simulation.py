@@ -51,12 +51,51 @@ def _check_scene(scene):
 
 
 def safe_time_step(scene, safety=0.5):
-    """CFL-like stable step (s) for the scene: the smallest over bodies of
-    ``safety · h_min / c`` (:func:`physlab.fem.stable_time_step`); ``safety`` in (0, 1]."""
+    """Stable explicit step (s) for the scene: the smallest over bodies of the CFL-like
+    ``safety · h_min / c`` (:func:`physlab.fem.stable_time_step`), and ``2 safety / damping``
+    (the damping term ``v ← (1 - dt·damping) v`` is stable for ``dt·damping < 2``);
+    ``safety`` in (0, 1]."""
     _check_scene(scene)
     safety = _check.number(safety, "safety", lo=0, hi=1, lo_open=True)
-    return min(fem.stable_time_step(b.mesh.X, b.mesh.tris, b.material.E, b.material.nu,
-                                    b.material.rho, safety) for b in scene.bodies)
+    cfl = min(fem.stable_time_step(b.mesh.X, b.mesh.tris, b.material.E, b.material.nu,
+                                   b.material.rho, safety) for b in scene.bodies)
+    return min(cfl, 2 * safety / scene.damping) if scene.damping > 0 else cfl
+
+
+def _min_height(X, tris):
+    """Smallest triangle height (px) of a mesh: ``2 V / longest edge``."""
+    e = np.stack([X[tris[:, 1]] - X[tris[:, 0]], X[tris[:, 2]] - X[tris[:, 1]],
+                  X[tris[:, 0]] - X[tris[:, 2]]], 1)
+    area = 0.5 * np.abs(e[:, 0, 0] * e[:, 1, 1] - e[:, 0, 1] * e[:, 1, 0])
+    return float(np.min(2 * area / np.linalg.norm(e, axis=2).max(1)))
+
+
+def _likely_causes(scene, system, dt):
+    """Scene parameters that make explicit steps of ``dt`` unstable, as readable hints: strong
+    damping, external accelerations (gravity, strokes) or wavy rigs that move vertices by a
+    sizeable part of the smallest triangle per step."""
+    h = min(_min_height(b.mesh.X, b.mesh.tris) for b in scene.bodies)
+    hints = []
+    if scene.damping * dt > 1:
+        hints.append(f"damping {scene.damping:g}/s × dt = {scene.damping * dt:.3g} (explicit "
+                     f"steps need damping·dt < 2)")
+    g = float(np.hypot(*scene.gravity))
+    if g * dt**2 > 0.5 * h:
+        hints.append(f"gravity {g:.3g} px/s² moves vertices {g * dt**2:.3g} px per step (the "
+                     f"smallest triangle is {h:.3g} px high)")
+    m_min = float(system.mass.min())
+    for i, st in enumerate(scene.strokes):
+        a = abs(st.strength) / m_min
+        if a * dt**2 > 0.5 * h:
+            hints.append(f"strokes[{i}] (strength {st.strength:.3g}) accelerates the lightest "
+                         f"vertex by {a:.3g} px/s², {a * dt**2:.3g} px per step (the smallest "
+                         f"triangle is {h:.3g} px high)")
+    for i, r in enumerate(scene.rigs):
+        if isinstance(r, WavyRig) and abs(r.amplitude * r.frequency) * dt > 0.5 * h:
+            hints.append(f"rigs[{i}] (WavyRig, amplitude {r.amplitude:g} px, frequency "
+                         f"{r.frequency:.3g} rad/s) moves its vertices up to "
+                         f"{abs(r.amplitude * r.frequency) * dt:.3g} px per step")
+    return hints
 
 
 def measured_stable_dt(scene, duration=0.5, rel_tol=0.05, method="semi_implicit_euler"):
@@ -273,11 +312,19 @@ def simulate(scene, duration, dt=1e-3, fps=24, progress=True, check_dt=True,
             triangles=len(system.tris)))
         reason = err.reason.replace("max_speed", "the scene's speed limit") + " px/s" \
             if "max_speed" in err.reason else err.reason
+        causes = _likely_causes(scene, system, dt)
+        if dt > safe or not causes:
+            todo = (f"use dt <= {safe:.2g} s (stability estimate from the smallest triangle, "
+                    f"the wave speed and the damping), soften the material or use "
+                    f"method='implicit_euler'")
+        else:
+            todo = (f"dt is already within the stability estimate ({safe:.2g} s) of the "
+                    f"material: weaken those or take much smaller steps")
+        why = f"; likely causes: {'; '.join(causes)}" if causes else ""
         raise UnstableTimeStep(
             f"the simulation blew up at step {err.step} (t = {err.t:.4g} s, dt = {dt:g} s, "
-            f"method '{method}'): {reason}; use dt <= {safe:.2g} s (CFL estimate from the "
-            f"smallest triangle and the wave speed), soften the material or use "
-            f"method='implicit_euler'", safe, err.step, err.t, dt, method, partial) from None
+            f"method '{method}'): {reason}{why}; {todo}",
+            safe, err.step, err.t, dt, method, partial) from None
     stats = dict(steps=n_steps, steps_per_frame=every, contacts=system.contacts, method=method,
                  seconds=time.perf_counter() - t0, safe_dt=safe, vertices=len(x0),
                  triangles=len(system.tris))

@@ -17,6 +17,7 @@ import numpy as np
 from physlab import _check
 
 from .flow import FLOW_KINDS, _flow_force
+from .rigging import MAX_COORD, _unit
 
 __all__ = ["EnergyStroke"]
 
@@ -41,6 +42,7 @@ class EnergyStroke:
     loop: bool = False
     direction: tuple | None = None
     _cum: np.ndarray = field(init=False, repr=False)
+    _unit: np.ndarray | None = field(init=False, repr=False, default=None)
 
     def __post_init__(self):
         try:
@@ -56,6 +58,10 @@ class EnergyStroke:
             k = int(np.flatnonzero(~np.isfinite(self.points).all(1))[0])
             raise ValueError(f"stroke points must be finite, point {k} is "
                              f"{self.points[k].tolist()}")
+        if np.abs(self.points).max() > MAX_COORD:
+            k = int(np.flatnonzero((np.abs(self.points) > MAX_COORD).any(1))[0])
+            raise ValueError(f"stroke points must lie within ±{MAX_COORD:g} px, point {k} is "
+                             f"{self.points[k].tolist()}")
         self.strength = _check.number(self.strength, "stroke strength")
         self.range = _check.number(self.range, "stroke range (px)", lo=0, lo_open=True)
         self.speed = _check.number(self.speed, "stroke speed (px/s)", lo=0, lo_open=True)
@@ -70,6 +76,7 @@ class EnergyStroke:
                 raise ValueError("stroke direction must be a non-zero vector (or None: along "
                                  "the stroke)")
             self.direction = tuple(d.tolist())
+            self._unit = _unit(d, "stroke direction")
         seg = np.linalg.norm(np.diff(self.points, axis=0), axis=1)
         if seg.sum() <= 0:
             raise ValueError("stroke has zero length")
@@ -94,7 +101,7 @@ class EnergyStroke:
         u = (s - self._cum[seg]) / np.maximum(self._cum[seg + 1] - self._cum[seg], 1e-12)
         pos = p0 + u[:, None] * (p1 - p0)
         if self.direction is not None:
-            d = np.broadcast_to(np.asarray(self.direction, float), pos.shape)
+            d = np.broadcast_to(self._unit, pos.shape)
         else:
             d = p1 - p0
         d = d / np.maximum(np.linalg.norm(d, axis=1, keepdims=True), 1e-12)
