@@ -1,9 +1,14 @@
-"""The ``physlab`` command.
+"""The ``physlab`` command: one subcommand per job, each a thin wrapper of one library function
+with the same keyword names.
 
+    physlab lessons                                        list the lessons
     physlab reproduce [--out reports] [--lessons 01 03]   execute lessons headless, save figures
     physlab execute lessons/01_*.ipynb                    execute notebooks in place (maintainers)
-    physlab lessons                                        list the lessons
     physlab animate --drawing tree --out tree.gif          a drawing blown by a wind stroke
+    physlab inbetween K0.png K1.png --skeleton0 s0.json --skeleton1 s1.json --frames 11 --out DIR
+    physlab generate "a person walks" --out walk.bvh       text (+ keypose / trajectories) -> motion
+    physlab train motion --stage base --out base.pt        train the motion generator
+    physlab evaluate inbetween|motion ...                  the evaluations of parts 3 and 4
 
 ``python -m physlab.cli ...`` works the same without the console script.
 """
@@ -80,6 +85,10 @@ def reproduce(out="reports", lessons=None, progress=True):
 EXAMPLES = """examples:
   physlab lessons
   physlab animate --drawing tree --duration 2 --out tree.gif
+  physlab inbetween key0.png key1.png --skeleton0 k0.json --skeleton1 k1.json --frames 11 --out frames/
+  physlab generate "a person walks" --trajectory pelvis=path.npy --out walk.bvh
+  physlab train motion --stage base --steps 4000 --out runs/base.pt
+  physlab evaluate motion --control data/motion/sketch2anim_control.pt --windows 16
   physlab reproduce --lessons 01 04 --out reports
 """
 
@@ -110,6 +119,46 @@ def _parser():
     a.add_argument("--direction-deg", type=float, default=0.0)
     a.add_argument("--out", default="animation.gif", help=".gif or .mp4")
     a.add_argument("--control-out", default=None, help="also write the control images here")
+    i = sub.add_parser("inbetween", help="skeleton-driven inbetweening of two keyframes",
+                       epilog="example:\n  physlab inbetween key0.png key1.png --skeleton0 k0.json "
+                              "--skeleton1 k1.json --frames 11 --out frames/\n\nA skeleton file "
+                              "is JSON {\"names\": [...], \"parents\": [...], \"xy\": [[x, y], ...]}"
+                              " (pixels, y down; Skeleton.to_dict) or an AnimatedDrawings "
+                              "char_cfg.yaml.")
+    i.add_argument("key0", help="first keyframe image (PNG, RGBA or on a light background)")
+    i.add_argument("key1", help="last keyframe image, same size")
+    i.add_argument("--skeleton0", required=True, help="skeleton of key0 (.json or char_cfg.yaml)")
+    i.add_argument("--skeleton1", required=True, help="skeleton of key1, same joints")
+    i.add_argument("--frames", type=int, default=11, help="frames including both keys")
+    i.add_argument("--out", required=True, help="folder for frame_000.png ... and contact.png")
+    g = sub.add_parser("generate", help="Sketch2Anim motion from an action text (+ conditions)",
+                       epilog="examples:\n  physlab generate \"a person walks\" --out walk.bvh\n"
+                              "  physlab generate \"a person runs\" --keypose pose.npy "
+                              "--trajectory pelvis=path.npy --out run.gif\n\n--keypose: a .npy "
+                              "(22, 3) array in metres; --trajectory JOINT=FILE: a .npy (t_r, 3) "
+                              "array for pelvis, left_foot, right_foot, head, left_wrist or "
+                              "right_wrist (canonical frame, see physlab.motion.sampling).")
+    g.add_argument("action", help='action text, e.g. "a person walks"')
+    g.add_argument("--keypose", default=None, help="(22, 3) .npy keypose in metres")
+    g.add_argument("--keypose-at", default="first", choices=("first", "last"))
+    g.add_argument("--trajectory", action="append", default=[], metavar="JOINT=FILE",
+                   help="(t_r, 3) .npy trajectory of a joint (repeatable)")
+    g.add_argument("--seed", type=int, default=0)
+    g.add_argument("--guidance-scale", type=float, default=7.5)
+    g.add_argument("--steps", type=int, default=50, help="DDIM steps")
+    g.add_argument("--checkpoint", default=None, help="default: the shipped control checkpoint")
+    g.add_argument("--out", required=True, help=".bvh (Blender), .gif or .npy (joints)")
+    t = sub.add_parser("train", help="train a model: physlab train motion ...",
+                       epilog="example:\n  physlab train motion --stage base --steps 4000 "
+                              "--out runs/base.pt\n(all flags: physlab train motion --help)")
+    t.add_argument("what", choices=("motion",))
+    t.add_argument("args", nargs=argparse.REMAINDER, help="flags of python -m physlab.motion.train")
+    e = sub.add_parser("evaluate", help="physlab evaluate inbetween|motion ...",
+                       epilog="examples:\n  physlab evaluate inbetween --pairs 2 --size 256\n"
+                              "  physlab evaluate motion --control data/motion/"
+                              "sketch2anim_control.pt --windows 16")
+    e.add_argument("what", choices=("inbetween", "motion"))
+    e.add_argument("args", nargs=argparse.REMAINDER, help="flags of the evaluation")
     return parser
 
 
@@ -153,7 +202,7 @@ def _dispatch(args):
             atomic_write(p, lambda tmp, nb=nb: nbformat.write(nb, tmp), ".ipynb")
             print(f"{p}: executed in {time.perf_counter() - t0:.1f} s")
     elif args.cmd == "animate":
-        from physlab.demos.physanimator import animate_drawing
+        from physlab.physanimator.pipeline import animate_drawing
 
         _check_animate(args)
         r = animate_drawing(drawing=args.drawing, duration=args.duration, fps=args.fps, E=args.E,
@@ -161,9 +210,107 @@ def _dispatch(args):
                             out=args.out, control_out=args.control_out)
         print(f"wrote {len(r.frames)} frames to {args.out} ({r.animation.stats['triangles']} "
               f"triangles, simulated in {r.animation.stats['seconds']:.1f} s)")
+    elif args.cmd == "inbetween":
+        _inbetween(args)
+    elif args.cmd == "generate":
+        _generate(args)
+    elif args.cmd == "train":
+        from physlab.motion.train import main as train_main
+
+        train_main(args.args)
+    elif args.cmd == "evaluate":
+        if args.what == "motion":
+            from physlab.motion.evaluate import main as evaluate_main
+        else:
+            from physlab.inbetween.evaluate import main as evaluate_main
+        evaluate_main(args.args)
     else:
         for p in lesson_paths():
             print(p.name)
+
+
+def _read_skeleton(path, flag):
+    """A :class:`~physlab.inbetween.Skeleton` from JSON (``Skeleton.to_dict``) or an
+    AnimatedDrawings ``char_cfg.yaml``."""
+    import json
+
+    from physlab.inbetween import Skeleton
+
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"{flag} {path}: no such file")
+    if path.suffix.lower() in (".yaml", ".yml"):
+        return Skeleton.from_animated_drawings(path)
+    try:
+        d = json.loads(path.read_text(encoding="utf-8"))
+        return Skeleton(d["names"], d["parents"], d["xy"])
+    except (ValueError, KeyError, TypeError) as e:
+        raise ValueError(f"{flag} {path}: not a skeleton file (JSON with names, parents, xy in "
+                         f"pixels): {e}") from None
+
+
+def _inbetween(args):
+    import numpy as np
+
+    from physlab.image import read_image, to_uint8
+    from physlab.inbetween import inbetween
+    from physlab.inbetween.plots import contact_sheet
+
+    keys = [read_image(k, name) for k, name in ((args.key0, "key0"), (args.key1, "key1"))]
+    s0, s1 = (_read_skeleton(args.skeleton0, "--skeleton0"),
+              _read_skeleton(args.skeleton1, "--skeleton1"))
+    res = inbetween(keys[0], keys[1], s0, s1, args.frames, progress=True)
+    out = Path(args.out)
+    for k, frame in enumerate(res.frames):
+        atomic_write(out / f"frame_{k:03d}.png",
+                     lambda tmp, f=frame: _write_png(tmp, to_uint8(np.asarray(f))), ".png")
+    contact_sheet(res.frames, out / "contact.png")
+    print(f"wrote {len(res.frames)} frames and contact.png to {out}/")
+
+
+def _write_png(path, image):
+    import imageio.v3 as iio
+
+    iio.imwrite(path, image, extension=".png")
+
+
+def _generate(args):
+    import numpy as np
+
+    from physlab.motion import generate, joints_to_bvh
+
+    def load(path, what):
+        if not Path(path).is_file():
+            raise FileNotFoundError(f"{what} {path}: no such file")
+        try:
+            return np.load(path, allow_pickle=False)
+        except ValueError as e:
+            raise ValueError(f"{what} {path}: not a .npy array ({e})") from None
+
+    suffix = Path(args.out).suffix.lower()
+    if suffix not in (".bvh", ".gif", ".npy"):
+        raise ValueError(f"--out {args.out}: cannot write {suffix or 'a file without extension'}"
+                         f"; use .bvh, .gif or .npy")
+    trajectories = {}
+    for item in args.trajectory:
+        joint, sep, path = item.partition("=")
+        if not sep:
+            raise ValueError(f"--trajectory {item!r}: expected JOINT=FILE, e.g. pelvis=path.npy")
+        trajectories[joint] = load(path, f"--trajectory {joint}")
+    joints = generate(args.action, keypose_3d=None if args.keypose is None else
+                      load(args.keypose, "--keypose"), keypose_at=args.keypose_at,
+                      trajectories_3d=trajectories or None, seed=args.seed,
+                      guidance_scale=args.guidance_scale, steps=args.steps,
+                      checkpoint=args.checkpoint)
+    if suffix == ".bvh":
+        joints_to_bvh(joints, args.out)
+    elif suffix == ".gif":
+        from physlab.viz.view3d import motion_to_gif
+
+        motion_to_gif(joints, args.out, backend="matplotlib")
+    else:
+        atomic_write(args.out, lambda tmp: np.save(tmp, joints), ".npy")
+    print(f"wrote {joints.shape[0]} frames of {args.action!r} to {args.out}")
 
 
 if __name__ == "__main__":

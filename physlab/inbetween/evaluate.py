@@ -25,7 +25,6 @@ Run ``python -m physlab.inbetween.evaluate --help``.
 """
 from __future__ import annotations
 
-import argparse
 import sys
 import time
 from pathlib import Path

@@ -57,7 +57,6 @@ Data: Bandai-Namco-Research-Motiondataset, CC BY-NC 4.0, © 2022 Bandai Namco Re
 """
 from __future__ import annotations
 
-import argparse
 import json
 import math
 import sys
