@@ -115,6 +115,14 @@ def test_the_graph_sees_lazy_imports():
     assert g["physlab.cli"]
 
 
+def test_motion_sampling_does_not_depend_on_training():
+    """Sampling reads checkpoints (motion.checkpoint) and the shared control losses
+    (motion.guidance), never the training module."""
+    g = import_graph()
+    assert "physlab.motion.train" not in g["physlab.motion.sampling"]
+    assert {"physlab.motion.checkpoint", "physlab.motion.guidance"} <= g["physlab.motion.sampling"]
+
+
 def test_no_import_cycle():
     found = cycles(import_graph())
     assert not found, f"modules that import each other (directly or round a loop): {found}"

@@ -174,7 +174,8 @@ class Generator:
 
         FileNotFoundError (with the training commands) if the file is missing, ValueError if
         it is truncated / corrupt / not a physlab motion checkpoint / lacks sampling data."""
-        from .train import hash_encoder, load_checkpoint, load_model
+        from .checkpoint import load_checkpoint, load_model
+        from .text import hash_encoder
 
         path = Path(path)
         if not path.is_file():
@@ -240,7 +241,7 @@ class Generator:
         The paper differentiates G through the network w.r.t. z_t and applies it only to its
         2D trajectories; physlab differentiates w.r.t. x̂₀ (no backpropagation through the
         network: ~10x cheaper on a CPU) and guides the 3D trajectories and the keypose."""
-        from .train import control_losses
+        from .guidance import control_losses
 
         sched = self.scheduler
         x0, _ = sched.split_output(out, x, t)

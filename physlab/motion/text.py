@@ -43,7 +43,7 @@ __all__ = [
     "EMBED_DIM", "GENERIC_ACTIONS", "MODEL_NAME", "WEIGHTS_FILE", "WEIGHTS_SHA256",
     "ActionEncoder", "EmbeddingCache", "WeightsChecksumError", "action_prompt",
     "cosine_similarity", "default_model_dir", "demo_vocabulary", "file_sha256", "nearest",
-    "training_vocabulary", "verify_weights",
+    "training_vocabulary", "verify_weights", "hash_encoder",
 ]
 
 MODEL_NAME = "sentence-transformers/all-MiniLM-L6-v2"
@@ -589,3 +589,17 @@ def nearest(text, vocabulary, k=5, encoder=None):
     s = cosine_similarity(q, V)[0]                                            # (M,)
     order = np.argsort(-s, kind="stable")[: int(k)]
     return [(words[i], float(s[i])) for i in order]
+
+
+def hash_encoder(texts, dim=384):
+    """A deterministic stand-in text encoder for tests: each text -> a unit vector drawn
+    from a generator seeded by its sha256. Carries no meaning; (N, dim) float32."""
+    rows = []
+    for t in texts:
+        seed = int.from_bytes(hashlib.sha256(t.encode()).digest()[:8], "little")
+        v = np.random.default_rng(seed).standard_normal(dim)
+        rows.append(v / np.linalg.norm(v))
+    return np.asarray(rows, dtype=np.float32)
+
+
+hash_encoder.name = "hash-test-encoder"

@@ -58,7 +58,6 @@ import dataclasses
 import hashlib
 import math
 import os
-import re
 import sys
 import time
 from dataclasses import dataclass
@@ -68,10 +67,8 @@ import numpy as np
 import torch
 import torch.nn.functional as F
 
-from physlab._io import atomic_write
 
 from .dataset import (
-    TRAJECTORY_JOINTS,
     load_clips,
     make_windows,
     random_condition,
@@ -85,9 +82,12 @@ from .model import (
     DenoiserConfig,
     MotionDenoiser,
     count_parameters,
-    features_to_joints_torch,
 )
 from .skeleton import JOINT_NAMES
+from .checkpoint import (CHECKPOINT_KIND, CHECKPOINT_VERSION, export_weights,  # noqa: F401
+                         load_checkpoint, load_model, save_checkpoint)
+from .guidance import control_losses  # noqa: F401 - part of this module's API
+from .text import hash_encoder  # noqa: F401 - part of this module's API
 
 __all__ = [
     "SCHEDULERS",
@@ -104,12 +104,6 @@ __all__ = [
     "save_checkpoint",
     "train",
 ]
-
-CHECKPOINT_KIND = "physlab.motion.train"
-#: 2: safe to load (``torch.load(weights_only=True)``): tensors, numbers, strings, lists and
-#: dicts only — numpy arrays are stored as tagged tensors / string lists (:func:`_to_safe`).
-#: 1 (before 2026-11): a general pickle, which can run code when loaded; refused.
-CHECKPOINT_VERSION = 2
 
 #: Noise schedules by name. "mld": MLD's (Chen et al. 2023) scaled-linear schedule
 #: (sqrt(ᾱ_T) ≈ 0.068, so x̂₀ of Eq. (7) is amplified at most ~15x at the noisiest step in
@@ -206,20 +200,6 @@ class TrainConfig:
 # ----------------------------------------------------------------------------- data
 
 
-def hash_encoder(texts, dim=384):
-    """A deterministic stand-in text encoder for tests: each text -> a unit vector drawn
-    from a generator seeded by its sha256. Carries no meaning; (N, dim) float32."""
-    rows = []
-    for t in texts:
-        seed = int.from_bytes(hashlib.sha256(t.encode()).digest()[:8], "little")
-        v = np.random.default_rng(seed).standard_normal(dim)
-        rows.append(v / np.linalg.norm(v))
-    return np.asarray(rows, dtype=np.float32)
-
-
-hash_encoder.name = "hash-test-encoder"
-
-
 def _text_cache(texts, cfg: TrainConfig):
     from .text import ActionEncoder, EmbeddingCache
 
@@ -308,173 +288,7 @@ def velocity_loss(x0_hat, x0):
     return F.mse_loss(x0_hat[:, 1:] - x0_hat[:, :-1], x0[:, 1:] - x0[:, :-1])
 
 
-def control_losses(x0_hat, joints, cond, mean, std):
-    """``L_tr`` (Eq. (6)) and ``L_key`` (Eq. (8)) of predicted clean features.
-
-    Parameters
-    ----------
-    x0_hat : (B, T, D) normalised x̂₀ (Eq. (7)); joints : (B, T+1, 22, 3) ground truth (m);
-    cond : condition dict (:func:`condition_batch`); mean, std : (D,) tensors.
-
-    Returns
-    -------
-    (L_tr, L_key) scalars in m²: L_tr is the masked mean over (frame, trajectory joint) of
-    squared distances, L_key the squared distance of the root-relative pose at the key
-    frame, summed over the 22 joints (the norm of Eq. (8) is over the whole frame).
-    """
-    pred = features_to_joints_torch(x0_hat * std + mean)                    # (B, N, J, 3) R(x̂₀)
-    tj = list(TRAJECTORY_JOINTS)
-    m = cond["traj_mask"].to(pred.dtype)                                     # (B, N, 6)
-    d2 = ((pred[:, :, tj] - joints[:, :, tj]) ** 2).sum(-1)                  # (B, N, 6)
-    l_tr = ((m * d2).sum((1, 2)) / m.sum((1, 2)).clamp(min=1)).mean()       # Eq. (6)
-    b = torch.arange(pred.shape[0])
-    kf = cond["key_frame"]
-    rel_p = pred[b, kf] - pred[b, kf, :1]                                    # (B, J, 3) R'(x̂₀)
-    rel_g = joints[b, kf] - joints[b, kf, :1]
-    l_key = ((rel_p - rel_g) ** 2).sum((1, 2)).mean()                        # Eq. (8), m'_i one-hot
-    return l_tr, l_key
-
-
 # ----------------------------------------------------------------------------- checkpoints
-
-
-_NDARRAY, _STRARRAY = "__ndarray__", "__str_ndarray__"
-
-
-def _to_safe(obj):
-    """``obj`` with every numpy array / scalar replaced by what ``torch.load(weights_only=
-    True)`` can read back without unpickling code: numeric arrays -> ``{"__ndarray__":
-    tensor}``, string arrays -> ``{"__str_ndarray__": [str], "shape": [int]}``, numpy scalars
-    -> Python numbers. Dicts, lists, tuples (as lists), tensors, str, numbers, None pass."""
-    if isinstance(obj, dict):
-        return {k: _to_safe(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_to_safe(v) for v in obj]
-    if isinstance(obj, np.ndarray):
-        if obj.dtype.kind in "US":
-            return {_STRARRAY: [str(x) for x in obj.reshape(-1)], "shape": list(obj.shape)}
-        return {_NDARRAY: torch.from_numpy(np.ascontiguousarray(obj).copy())}
-    if isinstance(obj, np.generic):
-        return obj.item()
-    return obj
-
-
-def _from_safe(obj):
-    """Inverse of :func:`_to_safe` (tagged entries back to numpy arrays)."""
-    if isinstance(obj, dict):
-        if set(obj) == {_NDARRAY}:
-            return obj[_NDARRAY].numpy()
-        if set(obj) == {_STRARRAY, "shape"}:
-            return np.array(obj[_STRARRAY], dtype=str).reshape(obj["shape"])
-        return {k: _from_safe(v) for k, v in obj.items()}
-    if isinstance(obj, list):
-        return [_from_safe(v) for v in obj]
-    return obj
-
-
-def save_checkpoint(path, state):
-    """``torch.save`` of ``state`` (made loadable with ``weights_only=True`` by
-    :func:`_to_safe`) to ``path`` atomically; returns the Path."""
-    safe = _to_safe(state)
-    return atomic_write(path, lambda tmp: torch.save(safe, tmp), suffix=".pt")
-
-
-def _last_line(e):
-    """The informative line of torch's long weights-only error ("Unsupported operand 32")."""
-    lines = [ln.strip() for ln in str(e).splitlines() if ln.strip()]
-    useful = [ln for ln in lines if ln.startswith("Unsupported")] or lines[-1:]
-    return useful[0][:160] if useful else type(e).__name__
-
-
-def load_checkpoint(path):
-    """Read a checkpoint written by :func:`train` / :func:`export_weights`.
-
-    Loading never runs code from the file: ``torch.load(weights_only=True)`` accepts only
-    tensors, numbers, strings, lists and dicts, so a crafted pickle is refused, not executed.
-
-    FileNotFoundError if missing; ValueError if unreadable (truncated / corrupt / holding
-    Python objects), not a physlab motion checkpoint, of another format version, or with
-    non-finite weights (naming the parameter)."""
-    import pickle
-
-    path = Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(f"no checkpoint at {path}; train one with `python -m "
-                                f"physlab.motion.train --stage base --out {path}`")
-    try:
-        ckpt = torch.load(path, map_location="cpu", weights_only=True)
-    except pickle.UnpicklingError as e:
-        found = re.search(r"Unsupported global: GLOBAL (\S+)", str(e))
-        if not found:                              # not a pickle of objects: a damaged file
-            raise ValueError(f"{path} is not a readable checkpoint (the file is damaged: "
-                             f"{_last_line(e)}); it may be truncated or corrupt: delete it "
-                             f"and retrain, or use an older copy") from None
-        raise ValueError(
-            f"{path} was refused: it holds Python objects that loading could execute, not "
-            f"only tensors, numbers and strings (it asks for {found.group(1)}). physlab "
-            f"never unpickles "
-            f"those. A checkpoint of physlab before format version {CHECKPOINT_VERSION} "
-            f"(2026-11) is such a file: retrain it (`make motion-model`, or the train "
-            f"command in data/motion/README.md)") from None
-    except Exception as e:  # noqa: BLE001 - torch raises many kinds for a corrupt file
-        raise ValueError(f"{path} is not a readable checkpoint ({type(e).__name__}: {e}); "
-                         f"it may be truncated or corrupt: delete it and retrain, or use an "
-                         f"older copy") from None
-    if not isinstance(ckpt, dict) or ckpt.get("kind") != CHECKPOINT_KIND:
-        raise ValueError(f"{path} is not a physlab.motion.train checkpoint (no kind "
-                         f"{CHECKPOINT_KIND!r})")
-    if ckpt.get("version") != CHECKPOINT_VERSION:
-        raise ValueError(f"{path} has checkpoint version {ckpt.get('version')}, this code "
-                         f"reads version {CHECKPOINT_VERSION}")
-    weights = ckpt.get("model")
-    if not isinstance(weights, dict) or not all(torch.is_tensor(v) for v in weights.values()):
-        raise ValueError(f"{path} has no state dict of tensors under 'model'")
-    for name, v in weights.items():
-        if v.is_floating_point() and not bool(torch.isfinite(v).all()):
-            raise ValueError(f"checkpoint {path} has non-finite weights (NaN or inf) in "
-                             f"{name!r}: it comes from a diverged training run; use an "
-                             f"earlier checkpoint or retrain with a smaller --lr")
-    return _from_safe(ckpt)
-
-
-def _build(ckpt):
-    cfg = DenoiserConfig.from_dict(ckpt["model_config"])
-    base = MotionDenoiser(cfg)
-    if ckpt["stage"] == "base":
-        return base
-    return ControlledDenoiser(base, single_controlnet=ckpt["single_controlnet"])
-
-
-def load_model(path_or_ckpt):
-    """Rebuild the trained network and everything needed to sample with it.
-
-    Returns
-    -------
-    dict: ``model`` (:class:`MotionDenoiser` or :class:`ControlledDenoiser`, eval mode,
-    float32), ``scheduler`` (:class:`NoiseScheduler`), ``stats`` (:class:`FeatureStats`),
-    ``text_cache`` (:class:`EmbeddingCache`), ``config`` (:class:`DenoiserConfig`),
-    ``stage``, ``step``.
-    """
-    from .text import EmbeddingCache
-
-    ckpt = path_or_ckpt if isinstance(path_or_ckpt, dict) else load_checkpoint(path_or_ckpt)
-    model = _build(ckpt)
-    model.load_state_dict({k: v.float() for k, v in ckpt["model"].items()})
-    model.eval()
-    return {"model": model, "scheduler": NoiseScheduler.from_dict(ckpt["scheduler"]),
-            "stats": FeatureStats(**ckpt["feature_stats"]),
-            "text_cache": EmbeddingCache.from_state_dict(ckpt["text_cache"]),
-            "config": model.config, "stage": ckpt["stage"], "step": ckpt["step"]}
-
-
-def export_weights(src, dst, dtype=torch.float16):
-    """Write an inference-only copy of a checkpoint (no optimizer / RNG states; weights cast
-    to ``dtype``); :func:`load_model` reads it. Returns the Path."""
-    ckpt = load_checkpoint(src)
-    small = {k: v for k, v in ckpt.items() if k not in ("optimizer", "rng")}
-    small["model"] = {k: v.to(dtype) if v.is_floating_point() else v
-                      for k, v in ckpt["model"].items()}
-    return save_checkpoint(dst, small)
 
 
 def _param_digest(model):

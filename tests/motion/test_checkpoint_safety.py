@@ -1,4 +1,4 @@
-"""Loading a checkpoint never runs code from it (Sketch2Anim generator, physlab.motion.train).
+"""Loading a checkpoint never runs code from it (Sketch2Anim generator, physlab.motion.checkpoint).
 
 A crafted ``.pt`` file whose pickle would create a marker file is passed to every entry point
 that reads checkpoints: the marker must not appear and the error must name the file."""
@@ -10,8 +10,9 @@ import torch
 
 from physlab.motion import generate
 from physlab.motion.sampling import Generator
-from physlab.motion.train import (CHECKPOINT_KIND, CHECKPOINT_VERSION, _from_safe, _to_safe,
-                                  load_checkpoint, save_checkpoint, train)
+from physlab.motion.checkpoint import (CHECKPOINT_KIND, CHECKPOINT_VERSION, _from_safe,
+                                       _to_safe, load_checkpoint, save_checkpoint)
+from physlab.motion.train import train
 
 
 class _Payload:

@@ -1,0 +1,40 @@
+"""The control losses of Sketch2Anim Sec. 4.3 — trajectory ``L_tr`` (Eq. (6)) and keypose
+``L_key`` (Eq. (8)) on decoded clean features — shared by training (:mod:`.train`, Eqs.
+(5)–(9)) and by the inference guidance of sampling (:mod:`.sampling`, supp. C; the 2D
+guidance of Eqs. (15)–(16) extends it).
+"""
+from __future__ import annotations
+
+import torch
+
+from .dataset import TRAJECTORY_JOINTS
+from .model import features_to_joints_torch
+
+__all__ = ["control_losses"]
+
+
+def control_losses(x0_hat, joints, cond, mean, std):
+    """``L_tr`` (Eq. (6)) and ``L_key`` (Eq. (8)) of predicted clean features.
+
+    Parameters
+    ----------
+    x0_hat : (B, T, D) normalised x̂₀ (Eq. (7)); joints : (B, T+1, 22, 3) ground truth (m);
+    cond : condition dict (:func:`condition_batch`); mean, std : (D,) tensors.
+
+    Returns
+    -------
+    (L_tr, L_key) scalars in m²: L_tr is the masked mean over (frame, trajectory joint) of
+    squared distances, L_key the squared distance of the root-relative pose at the key
+    frame, summed over the 22 joints (the norm of Eq. (8) is over the whole frame).
+    """
+    pred = features_to_joints_torch(x0_hat * std + mean)                    # (B, N, J, 3) R(x̂₀)
+    tj = list(TRAJECTORY_JOINTS)
+    m = cond["traj_mask"].to(pred.dtype)                                     # (B, N, 6)
+    d2 = ((pred[:, :, tj] - joints[:, :, tj]) ** 2).sum(-1)                  # (B, N, 6)
+    l_tr = ((m * d2).sum((1, 2)) / m.sum((1, 2)).clamp(min=1)).mean()       # Eq. (6)
+    b = torch.arange(pred.shape[0])
+    kf = cond["key_frame"]
+    rel_p = pred[b, kf] - pred[b, kf, :1]                                    # (B, J, 3) R'(x̂₀)
+    rel_g = joints[b, kf] - joints[b, kf, :1]
+    l_key = ((rel_p - rel_g) ** 2).sum((1, 2)).mean()                        # Eq. (8), m'_i one-hot
+    return l_tr, l_key
