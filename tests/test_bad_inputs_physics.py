@@ -387,6 +387,19 @@ def test_scene_from_json_text_and_paths():
         pa.Scene.from_json("nowhere.json")
     with pytest.raises(TypeError, match=r"JSON text or a file path"):
         pa.Scene.from_json(42)
+    with pytest.raises(ValueError, match=r"scene JSON: not valid JSON .*nested too deeply"):
+        pa.Scene.from_json("[" * 100_000 + "]" * 100_000)
+    with pytest.raises(ValueError, match=r"scene JSON: field scene must be a JSON object, got int"):
+        pa.Scene.from_json("42")
+
+
+def test_a_file_name_starting_with_a_digit_is_a_path(tmp_path, monkeypatch):
+    (tmp_path / "2024_scene.json").write_text(_mutated())
+    monkeypatch.chdir(tmp_path)
+    assert pa.Scene.from_json("2024_scene.json").gravity == (0.0, 980.0)
+    (tmp_path / "7.json").write_text("{}")
+    with pytest.raises(ValueError, match=r"^7\.json: field scene lacks 'bodies'"):
+        pa.Scene.from_json("7.json")
 
 
 def test_a_physanimator_blow_up_is_a_simulation_diverged_with_the_frames_before_it():

@@ -25,6 +25,8 @@ __all__ = ["Material", "Body", "Scene"]
 
 #: Largest canvas side (px) a scene may have.
 MAX_CANVAS = 16384
+#: Largest scene file (bytes) :meth:`Scene.from_json` reads.
+MAX_SCENE_BYTES = 512 * 1024**2
 
 
 @dataclass
@@ -211,20 +213,35 @@ def _scene_text(text_or_path):
     import os
     from pathlib import Path
 
+    def is_file(path):
+        try:
+            return path.is_file()
+        except (OSError, ValueError):               # name too long, NUL byte, ...
+            return False
+
     if isinstance(text_or_path, str):
-        head = text_or_path.lstrip()[:1]
-        if head in ("{", "[", '"') or "\n" in text_or_path or head.isdigit() \
-                or text_or_path.strip() in ("null", "true", "false"):
-            return "scene JSON", text_or_path
-        path = Path(text_or_path)
+        text = text_or_path
+        if text.lstrip()[:1] in ("{", "[") or "\n" in text:
+            return "scene JSON", text
+        path = Path(text)
+        if not is_file(path):
+            try:                                    # "42", "null", '"x"': JSON, not a path
+                json.loads(text)
+                return "scene JSON", text
+            except (ValueError, RecursionError):
+                pass
     elif isinstance(text_or_path, os.PathLike):
         path = Path(text_or_path)
     else:
         raise TypeError(f"Scene.from_json takes JSON text or a file path, got "
                         f"{type(text_or_path).__name__}")
-    if not path.is_file():
-        raise FileNotFoundError(f"no scene file {path} (pass a path to a .json file written by "
-                                f"Scene.to_json, or the JSON text itself)")
+    if not is_file(path):
+        raise FileNotFoundError(f"no scene file {str(path)[:200]} (pass a path to a .json file "
+                                f"written by Scene.to_json, or the JSON text itself)")
+    size = path.stat().st_size
+    if size > MAX_SCENE_BYTES:
+        raise ValueError(f"{path}: {size / 1e6:.0f} MB is more than the limit of "
+                         f"{MAX_SCENE_BYTES / 1e6:.0f} MB for a scene file; is it a scene?")
     try:
         return str(path), path.read_text(encoding="utf-8")
     except UnicodeDecodeError:
@@ -361,6 +378,9 @@ class Scene:
         except json.JSONDecodeError as e:
             raise ValueError(f"{source}: not valid JSON (line {e.lineno}, column {e.colno}: "
                              f"{e.msg}); is the file truncated?") from None
+        except RecursionError:
+            raise ValueError(f"{source}: not valid JSON for a scene: lists or objects nested "
+                             f"too deeply") from None
         try:
             return cls.from_dict(d)
         except ValueError as e:
