@@ -30,7 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from physlab.motion import metrics as M
-from physlab.motion.dataset import TRAJECTORY_JOINT_NAMES, load_clips, make_windows
+from physlab.motion.dataset import load_clips, make_windows
 from physlab.motion.features import (
     CONTACTS,
     RIC,
@@ -779,13 +779,9 @@ def embedding_figure(nb, label_every=1):
 
 # ---------------------------------------------------------------------------- Sec. 7: control
 def condition_kwargs(cond):
-    """A :class:`~physlab.motion.dataset.Condition` as the ``keypose_3d`` / ``keypose_at`` /
-    ``trajectories_3d`` arguments of :meth:`Generator.__call__` (each trajectory the
-    ``(t_r, 3)`` points of its masked frames, metres), as the evaluation passes them."""
-    trajs = {name: cond.trajectory[cond.mask[:, c], c]                       # (t_r, 3)
-             for c, name in enumerate(TRAJECTORY_JOINT_NAMES) if cond.mask[:, c].any()}
-    return {"keypose_3d": cond.keypose, "trajectories_3d": trajs,
-            "keypose_at": "first" if cond.key_frame == 0 else "last"}
+    """:meth:`Condition.generator_kwargs <physlab.motion.dataset.Condition.generator_kwargs>`
+    of ``cond`` (the lesson's name for it)."""
+    return cond.generator_kwargs()
 
 
 #: Rows of :func:`control_comparison`: key -> (row name of :mod:`physlab.motion.evaluate`,

@@ -159,10 +159,12 @@ def max_injective_step(x, d, tris):
 
 
 def flipped_count(X, x, tris):
-    """Number of triangles whose signed area in ``x`` is ≤ 0 or has the opposite sign to ``X``."""
-    s0 = np.linalg.det(_edge_matrices(np.asarray(X, float), tris))
-    s1 = np.linalg.det(_edge_matrices(np.asarray(x, float), tris))
-    return int(np.sum(s0 * s1 <= 0))
+    """Number of triangles whose signed area in ``x`` is 0 or has the opposite sign to ``X``:
+    ``len(flipped_triangles(X, x, tris, rtol=0))`` (:func:`physlab.inbetween.skinning.
+    flipped_triangles`, the one place that decides what a flipped triangle is)."""
+    from .skinning import flipped_triangles
+
+    return int(len(flipped_triangles(X, x, tris, rtol=0.0)))
 
 
 def cotangent_laplacian(X, tris):

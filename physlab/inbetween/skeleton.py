@@ -19,6 +19,8 @@ from pathlib import Path
 
 import numpy as np
 
+from physlab.motion.skeleton import topological_order  # one home for kinematic trees
+
 __all__ = ["Skeleton", "interpolate", "check_compatible"]
 
 #: Bones shorter than this (px) have no direction; their angle is inherited from the parent.
@@ -74,7 +76,7 @@ class Skeleton:
                              f"{roots.tolist()}")
         if np.any(parents >= J) or np.any(parents == np.arange(J)):
             raise ValueError("parents must index other joints (0 ≤ parent < J, parent ≠ self)")
-        order = _topological_order(parents)
+        order = topological_order(parents)
         object.__setattr__(self, "names", names)
         object.__setattr__(self, "parents", parents)
         object.__setattr__(self, "xy", xy)
@@ -187,7 +189,7 @@ class Skeleton:
             raise ValueError("bone lengths must be ≥ 0")
         xy = np.zeros((J, 2))
         ang = np.zeros(J)
-        for j in _topological_order(parents):
+        for j in topological_order(parents):
             p = parents[j]
             if p < 0:
                 xy[j] = np.asarray(root_xy, dtype=float)
@@ -227,22 +229,6 @@ class Skeleton:
         """Whether ``other`` has the same joint names and parents."""
         return (isinstance(other, Skeleton) and self.names == other.names
                 and np.array_equal(self.parents, other.parents))
-
-
-def _topological_order(parents):
-    J = len(parents)
-    children = [[] for _ in range(J)]
-    for j, p in enumerate(parents):
-        if p >= 0:
-            children[p].append(j)
-    order = [int(np.flatnonzero(parents < 0)[0])]
-    i = 0
-    while i < len(order):
-        order.extend(children[order[i]])
-        i += 1
-    if len(order) != J:
-        raise ValueError("parents contain a cycle: not every joint is reachable from the root")
-    return np.array(order, dtype=np.int64)
 
 
 def check_compatible(sk0, sk1, names=("skeleton0", "skeleton1")):

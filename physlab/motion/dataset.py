@@ -34,7 +34,7 @@ from physlab._io import atomic_write
 
 from .bvh import BANDAI_NAMCO_MAPPING, read_bvh, retarget_to_smpl22
 from .features import _check_joints, canonicalize
-from .skeleton import JOINT_NAMES
+from .skeleton import JOINT_NAMES, joint_index
 
 __all__ = [
     "BANDAI_NAMCO_ATTRIBUTION", "ACTION_PHRASES", "STYLE_PHRASES", "TRAJECTORY_JOINTS",
@@ -406,6 +406,15 @@ class Condition:
     joints: tuple
     t_r: int
 
+    def generator_kwargs(self):
+        """This condition as the ``keypose_3d`` / ``keypose_at`` / ``trajectories_3d``
+        arguments of :func:`physlab.motion.generate` (each trajectory the ``(t_r, 3)`` points
+        of its masked frames, metres) — how the evaluation and the lessons pass it."""
+        trajs = {name: self.trajectory[self.mask[:, c], c]                    # (t_r, 3)
+                 for c, name in enumerate(TRAJECTORY_JOINT_NAMES) if self.mask[:, c].any()}
+        return {"keypose_3d": self.keypose, "trajectories_3d": trajs,
+                "keypose_at": "first" if self.key_frame == 0 else "last"}
+
     @property
     def keypose_dense(self):
         """``K_3D``: (N, 22, 3) float, the keypose at ``key_frame`` and 0 elsewhere."""
@@ -424,7 +433,7 @@ def _trajectory_columns(joints):
             if j not in JOINT_NAMES:
                 raise ValueError(f"unknown joint {j!r}; trajectories are defined for "
                                  f"{', '.join(TRAJECTORY_JOINT_NAMES)}")
-            j = JOINT_NAMES.index(j)
+            j = joint_index(j)
         if int(j) not in TRAJECTORY_JOINTS:
             name = JOINT_NAMES[int(j)] if 0 <= int(j) < len(JOINT_NAMES) else j
             raise ValueError(f"joint {name!r} has no trajectory condition; use some of "

@@ -74,7 +74,6 @@ from .dataset import (
     action_text,
     JOINT_COMBINATIONS,
     TEST_TAKES,
-    TRAJECTORY_JOINT_NAMES,
     TRAJECTORY_JOINTS,
     condition_from_window,
     load_clips,
@@ -176,14 +175,6 @@ def eval_conditions(joints, seed=0):
     return conds
 
 
-def _generator_kwargs(cond):
-    """A :class:`Condition` as ``keypose_3d`` / ``keypose_at`` / ``trajectories_3d``."""
-    trajs = {name: cond.trajectory[cond.mask[:, c], c]                     # (t_r, 3)
-             for c, name in enumerate(TRAJECTORY_JOINT_NAMES) if cond.mask[:, c].any()}
-    return {"keypose_3d": cond.keypose, "trajectories_3d": trajs,
-            "keypose_at": "first" if cond.key_frame == 0 else "last"}
-
-
 # ----------------------------------------------------------------------------- metrics
 
 
@@ -255,7 +246,7 @@ def _sample(gen, data, conds, controlled, steps, guidance, seed, progress, label
 
     out, total = [], 0.0
     for i in tqdm(range(len(conds)), desc=label, disable=not progress, leave=False):
-        kw = ({**_generator_kwargs(conds[i]), **(GUIDED if guided else UNGUIDED)}
+        kw = ({**conds[i].generator_kwargs(), **(GUIDED if guided else UNGUIDED)}
               if controlled else {})
         tic = time.perf_counter()
         out.append(gen(data["text"][i], seed=seed + i, guidance_scale=guidance, steps=steps,

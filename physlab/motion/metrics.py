@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .skeleton import JOINT_NAMES
+from .skeleton import JOINT_NAMES, joint_index
 
 __all__ = [
     "SKATING_FEET", "SKATING_HEIGHT", "SKATING_SPEED", "SKATING_WINDOW",
@@ -63,9 +63,7 @@ def _joint_indices(joints, n_joints):
     idx = []
     for j in joints:
         if isinstance(j, str):
-            if j not in JOINT_NAMES:
-                raise ValueError(f"unknown joint {j!r}; expected one of {', '.join(JOINT_NAMES)}")
-            j = JOINT_NAMES.index(j)
+            j = joint_index(j)
         if not 0 <= int(j) < n_joints:
             raise ValueError(f"joint index {j} out of range 0..{n_joints - 1}")
         idx.append(int(j))

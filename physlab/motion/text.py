@@ -29,6 +29,7 @@ Nothing is downloaded: the model is read from the installed package's folder wit
 """
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import os
 import time
@@ -281,16 +282,17 @@ class ActionEncoder:
         t0 = time.perf_counter()
         model_dir = default_model_dir() if self.model_dir is None else self.model_dir
         verify_weights(model_dir, self.expected_sha256)
-        # Local folder only: never reach the Hugging Face Hub (set before the first import
-        # of huggingface_hub / transformers, which read them once).
-        os.environ["HF_HUB_OFFLINE"] = "1"
-        os.environ["TRANSFORMERS_OFFLINE"] = "1"
-        try:
-            from sentence_transformers import SentenceTransformer
-        except ImportError as err:
-            raise ModuleNotFoundError("ActionEncoder needs sentence-transformers (and torch): "
-                                      "`pip install sentence-transformers`") from err
-        model = SentenceTransformer(str(model_dir), device=self.device, local_files_only=True)
+        # Local folder only: never reach the Hugging Face Hub. The offline switches are set
+        # while huggingface_hub / transformers are imported (they read them then) and while
+        # the model loads, and the process environment is restored afterwards.
+        with _offline_env():
+            try:
+                from sentence_transformers import SentenceTransformer
+            except ImportError as err:
+                raise ModuleNotFoundError("ActionEncoder needs sentence-transformers (and "
+                                          "torch): `pip install sentence-transformers`") from err
+            model = SentenceTransformer(str(model_dir), device=self.device,
+                                        local_files_only=True)
         modules = list(model)
         # Drop the model's final Normalize layer so encode(normalize=False) can return the
         # mean-pooled vectors; normalize=True divides by the norm in numpy (same to 1e-8).
@@ -589,6 +591,23 @@ def nearest(text, vocabulary, k=5, encoder=None):
     s = cosine_similarity(q, V)[0]                                            # (M,)
     order = np.argsort(-s, kind="stable")[: int(k)]
     return [(words[i], float(s[i])) for i in order]
+
+
+@contextlib.contextmanager
+def _offline_env():
+    """``HF_HUB_OFFLINE=1`` and ``TRANSFORMERS_OFFLINE=1`` inside the block, the previous
+    values (or their absence) restored after it."""
+    keys = ("HF_HUB_OFFLINE", "TRANSFORMERS_OFFLINE")
+    old = {k: os.environ.get(k) for k in keys}
+    os.environ.update({k: "1" for k in keys})
+    try:
+        yield
+    finally:
+        for k, v in old.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v
 
 
 def hash_encoder(texts, dim=384):

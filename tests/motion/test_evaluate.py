@@ -13,7 +13,6 @@ from physlab.motion.evaluate import (
     COLUMNS,
     MIN_T_R,
     ROW_NAMES,
-    _generator_kwargs,
     clip_metrics,
     eval_conditions,
     evaluate,
@@ -101,7 +100,7 @@ def test_held_out_windows_and_conditions(real_data):
     assert all(np.array_equal(a.mask, b.mask) for a, b in zip(conds, again))
     # the generator receives exactly the condition layout of condition_from_window
     for c in conds:
-        b = build_condition(**_generator_kwargs(c))
+        b = build_condition(**c.generator_kwargs())
         assert np.array_equal(b["traj_mask"], c.mask) and b["key_frame"] == c.key_frame
         assert np.allclose(b["trajectory"], c.trajectory) and np.allclose(b["keypose"], c.keypose)
 

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 import torch
 
-from physlab.motion.evaluate import _generator_kwargs, clip_metrics, eval_conditions, \
+from physlab.motion.evaluate import clip_metrics, eval_conditions, \
     held_out_windows
 from physlab.motion.sampling import DEFAULT_CHECKPOINT, Generator
 from physlab.motion.dataset import load_clips, make_windows, split_by_take
@@ -71,7 +71,7 @@ def test_control_cuts_errors_on_held_out_windows(real_data, gen):
     rows = {}
     for label, controlled in (("text", False), ("control", True)):
         x = np.stack([gen(data["text"][i], seed=i, steps=20,
-                          **(_generator_kwargs(c) if controlled else {}))
+                          **(c.generator_kwargs() if controlled else {}))
                       for i, c in enumerate(conds)])
         rows[label] = clip_metrics(x, conds)
     t, c = rows["text"], rows["control"]
