@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .skeleton import JOINT_NAMES, joint_index
+from .skeleton import joint_index
 
 __all__ = [
     "SKATING_FEET", "SKATING_HEIGHT", "SKATING_SPEED", "SKATING_WINDOW",
