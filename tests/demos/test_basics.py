@@ -104,3 +104,149 @@ def test_make_scene_validates():
     with pytest.raises(ValueError, match="valid scenes are"):
         basics.make_scene("trampoline")
     assert basics.make_scene("cloth", k=100.0).k.max() == 100.0
+
+
+# ---------------------------------------------------------------- bad inputs name the culprit
+
+@pytest.mark.parametrize("call, error, match", [
+    (lambda: basics.HangingSpring(k=0.0), ValueError, r"HangingSpring\.k must be > 0"),
+    (lambda: basics.HangingSpring(m=float("nan")), ValueError, r"HangingSpring\.m must be finite"),
+    (lambda: basics.HangingSpring(gamma=-1.0), ValueError, r"HangingSpring\.gamma must be >= 0"),
+    (lambda: basics.HangingSpring(anchor=(0.0,)), ValueError, r"HangingSpring\.anchor must have 2"),
+    (lambda: basics.ode_demo(t_end=0.0), ValueError, r"t_end \(s\) must be > 0"),
+    (lambda: basics.ode_demo(k=-40.0), ValueError, r"HangingSpring\.k must be > 0"),
+    (lambda: basics.ode_demo(method="euler"), ValueError, "valid methods are"),
+    (lambda: basics.convergence_study(dts=(0.01,)), ValueError, "at least two different time steps"),
+    (lambda: basics.convergence_study(dts=(0.01, -0.005)), ValueError, r"each of dts \(s\) must be > 0"),
+    (lambda: basics.convergence_study(dts=0.01), TypeError, "dts must be a sequence"),
+    (lambda: basics.newton_demo(y0=[0.0, -1.0]), ValueError, "y0 must be 4 finite numbers"),
+    (lambda: basics.stiff_spring_demo(t_end=-1.0), ValueError, r"t_end \(s\) must be > 0"),
+    (lambda: basics.stability_demo(dt=0.0), ValueError, r"dt \(s\) must be > 0"),
+    (lambda: basics.stability_demo(m=0.0), ValueError, r"HangingSpring\.m must be > 0"),
+    (lambda: basics.make_scene("chain", k=0.0), ValueError, r"k \(N/m\) must be > 0"),
+    (lambda: basics.make_scene("chain", k="stiff"), TypeError, r"k \(N/m\) must be a number"),
+    (lambda: basics.make_scene("chain", damping=-0.1), ValueError, r"damping γ \(N·s/m\) must be >= 0"),
+    (lambda: basics.make_scene(None), ValueError, "valid scenes are"),
+    (lambda: basics.run_scene("chain"), TypeError, "system must be a physlab.springs.SpringSystem"),
+    (lambda: basics.run_scene(basics.make_scene(), dt=0.0), ValueError, r"dt \(s\) must be > 0"),
+    (lambda: basics.run_scene(basics.make_scene(), duration=float("inf")), ValueError,
+     r"duration \(s\) must be finite"),
+    (lambda: basics.run_scene(basics.make_scene(), method="rk4"), ValueError, "unknown method 'rk4'"),
+    (lambda: basics.run_scene(basics.make_scene(), newton="quasi"), ValueError, "unknown newton 'quasi'"),
+    (lambda: basics.critical_time_step(None), TypeError, "system must be a physlab.springs.SpringSystem"),
+    (lambda: basics.energy_comparison(basics.make_scene(), methods=("heun",)), ValueError,
+     "unknown method 'heun'"),
+    (lambda: basics.mass_spring_demo(dt=-0.004), ValueError, r"dt \(s\) must be > 0"),
+    (lambda: basics.mass_spring_demo(dt=float("nan")), ValueError, r"dt \(s\) must be finite"),
+    (lambda: basics.mass_spring_demo(duration=0.0), ValueError, r"duration \(s\) must be > 0"),
+    (lambda: basics.mass_spring_demo(method="midpoint"), ValueError, "valid values are: explicit_euler"),
+    (lambda: basics.mass_spring_demo(compare="yes"), TypeError, "compare must be True or False"),
+    (lambda: basics.mass_spring_demo(max_steps=0), ValueError, "max_steps must be >= 1"),
+    (lambda: basics.mass_spring_demo(dt=1e-6, duration=1.0, max_steps=None), ValueError,
+     "too many for a widget"),
+])
+def test_bad_inputs_raise_clear_errors(call, error, match):
+    with pytest.raises(error, match=match):
+        call()
+
+
+# ---------------------------------------------------------------- mass_spring_demo (lessons 00, 03)
+
+def _left_panel(fig):
+    return fig.axes[0]
+
+
+def test_mass_spring_demo_redraw_after_moving_the_method_does_not_simulate(monkeypatch):
+    basics._scene_run.cache_clear()
+    basics._scene_energy.cache_clear()
+    calls = []
+    real = basics.simulate
+    monkeypatch.setattr(basics, "simulate", lambda *a, **k: calls.append(a[5]) or real(*a, **k))
+    kw = dict(scene="hanging", dt=0.01, duration=0.3)
+    basics.mass_spring_demo(method="semi_implicit_euler", **kw)
+    assert sorted(calls) == sorted(basics.MECHANICAL_METHODS)  # the energy panel needs all three
+    for m in basics.MECHANICAL_METHODS:  # moving the method dropdown: no new simulation
+        basics.mass_spring_demo(method=m, **kw)
+    assert len(calls) == 3
+    basics.mass_spring_demo(method="implicit_euler", k=41.0, **kw)  # a new k: simulated again
+    assert len(calls) == 6
+
+
+def test_mass_spring_demo_axes_in_metres_and_colours_explained():
+    sparse = basics.mass_spring_demo("chain", dt=0.01, duration=0.5)
+    dense = basics.mass_spring_demo("cloth", dt=0.01, duration=0.5)
+    for fig, bar in ((sparse, "snapshot time t (s)"), (dense, "strain l/L - 1")):
+        ax = _left_panel(fig)
+        assert (ax.get_xlabel(), ax.get_ylabel()) == ("x (m)", "y (m)")
+        cbar = [a for a in fig.axes if a.get_xlabel().startswith(bar)]
+        assert len(cbar) == 1, [a.get_xlabel() for a in fig.axes]
+        assert fig.axes[1].get_ylabel() == "total energy (J)"
+    assert "path of the far corner" in [t.get_text() for t in _left_panel(dense).get_legend().get_texts()]
+
+
+def test_cloth_scene_swings_away_from_its_rest_grid():
+    s = basics.make_scene("cloth")
+    r, blew = basics.run_scene(s, dt=0.01, duration=1.5, method="implicit_euler",
+                               newton="baraff_witkin")
+    assert blew is None
+    moved = np.linalg.norm(r.x - s.X, axis=-1)  # (T, n)
+    assert moved[-1].mean() > 0.3  # the last frame is far from the rest grid (m)
+    # it swings: the far corner's horizontal position passes to the other side of the pin
+    far = np.argmax(np.linalg.norm(s.X - s.X[s.fixed[0]], axis=1))
+    assert r.x[:, far, 0].min() < s.X[s.fixed[0], 0] - 0.3 < s.X[far, 0]
+    fig = basics.mass_spring_demo("cloth", dt=0.01, duration=1.5)
+    path = [ln for ln in _left_panel(fig).lines if ln.get_label() == "path of the far corner"][0]
+    assert np.ptp(path.get_xdata()) > 0.5
+
+
+def test_mass_spring_demo_bounds_the_number_of_steps():
+    fig = basics.mass_spring_demo("hanging", dt=0.002, duration=3.0, max_steps=50)
+    energy = fig.axes[1]
+    assert "50 steps" in energy.get_title()
+    t_end = max(ln.get_xdata()[-1] for ln in energy.lines if len(ln.get_xdata()) > 2)
+    assert t_end == pytest.approx(0.1)
+
+
+def test_baraff_witkin_widget_run_matches_full_newton_and_never_gains_energy():
+    s = basics.make_scene("chain")
+    full, _ = basics.run_scene(s, 0.004, 1.0, "implicit_euler", newton="full")
+    bw, _ = basics.run_scene(s, 0.004, 1.0, "implicit_euler", newton="baraff_witkin")
+    E = basics.energy_comparison(s, 0.004, 1.0, ("implicit_euler",), runs={"implicit_euler": (bw, None)})
+    e = E["implicit_euler"][1]
+    assert np.all(np.diff(e) < 1e-9)
+    assert np.abs(full.x - bw.x).max() < 0.05  # m, over 250 steps of a falling rope
+
+
+def test_dense_solver_gives_the_sparse_solution():
+    from physlab.integrators import simulate
+
+    s = basics.make_scene("soft_box")  # 72 unknowns: above the library's dense limit
+    x0, v0 = s.rest_state()
+    ref = simulate(s, x0, v0, 0.01, 30, "implicit_euler", solver="direct")
+    r, blew = basics.run_scene(s, 0.01, 0.3, "implicit_euler")
+    assert blew is None
+    np.testing.assert_allclose(r.x, ref.x, atol=1e-9)
+
+
+def test_blown_up_frames_are_not_drawn():
+    fig = basics.mass_spring_demo("chain", dt=0.05, duration=1.0, method="semi_implicit_euler")
+    ax = _left_panel(fig)
+    assert "blew up" in ax.get_title() and "later frames not drawn" in ax.get_title()
+    (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
+    assert x1 - x0 < 3 and y1 - y0 < 3  # the view stays on the rope (1 m), not on the blow-up
+
+
+def test_stability_demo_keeps_large_h_lambda_in_view():
+    fig = basics.stability_demo(dt=1.0, k=1e4)  # hλ = ±100 i
+    for ax in fig.axes[:2]:
+        assert ax.get_ylim()[1] > 100 and ax.get_ylim()[0] < -100
+    fig = basics.stability_demo()  # small hλ: the default window
+    assert fig.axes[0].get_xlim() == pytest.approx((-4.5, 2.5))
+
+
+def test_ode_demo_energy_axis_resolves_small_drift():
+    fig = basics.ode_demo(dt=0.001, method="rk4", t_end=2.0)
+    ax = fig.axes[1]
+    drift = np.abs(ax.lines[0].get_ydata()).max()
+    assert 0 < drift < 1e-6
+    assert ax.yaxis.get_transform().linthresh <= drift / 100  # the drift spans log decades
