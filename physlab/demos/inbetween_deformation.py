@@ -375,16 +375,13 @@ def limb_symmetric_dirichlet(example, mu=MU, max_handle_step=16.0):
     """Deform a :class:`~physlab.inbetween.skinning.LimbExample` into its posed skeleton by
     Eq. (1), through intermediate bends (handles move ≤ ``max_handle_step`` px per solve,
     each solve warm-started from the previous one). Returns the (n, 2) vertices."""
-    from physlab.inbetween import interpolate
+    from physlab.inbetween.pipeline import substeps
 
     D = SymmetricDirichletDeformer(example.X, example.tris,
                                    handle_matrix(example.handle_vertices, len(example.X)),
                                    mu=_check_mu(mu))
-    rest, pose = example.skeleton_rest, example.skeleton_pose
-    move = np.linalg.norm(pose.handles() - rest.handles(), axis=1).max()
-    k = max(1, int(np.ceil(move / max_handle_step)))
     x = None
-    for s in interpolate(rest, pose, np.arange(1, k + 1) / k):
+    for s in substeps(example.skeleton_rest, example.skeleton_pose, max_handle_step):
         x = D.solve(s.handles(), x0=x).x
     return x
 

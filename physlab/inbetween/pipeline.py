@@ -98,8 +98,10 @@ def _progress(it, progress, desc):
 MAX_HANDLE_STEP = 16.0
 
 
-def _substeps(prev, skel, max_step):
-    """Skeletons from ``prev`` (exclusive) to ``skel`` (inclusive), handles moving ≤ max_step."""
+def substeps(prev, skel, max_step):
+    """Skeletons from ``prev`` (exclusive) to ``skel`` (inclusive) with no handle moving more
+    than ``max_step`` px from one to the next (:func:`interpolate`): the continuation path
+    of :func:`deform_sequence`, each solve warm-started from the previous one."""
     move = np.linalg.norm(skel.handles() - prev.handles(), axis=1).max()
     k = max(1, int(np.ceil(move / max_step)))
     return interpolate(prev, skel, np.arange(1, k + 1) / k) if k > 1 else [skel]
@@ -145,7 +147,7 @@ def deform_sequence(template, skeletons, deformer="symmetric_dirichlet", order=N
                      method=options.get("method", "lbfgs"))
         x, prev = None, template.skeleton
         for i in _progress(order, progress, "deform"):
-            for s in _substeps(prev, skeletons[i], max_handle_step):
+            for s in substeps(prev, skeletons[i], max_handle_step):
                 x = D.solve(s.handles(), x0=x, **solve).x
             xs[i], prev = x, skeletons[i]
     else:
