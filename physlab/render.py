@@ -629,13 +629,15 @@ def _frames_uint8(frames):
 def frames_to_gif(frames, path, fps=20):
     """Write (T, H, W, 3|4) uint8 (or float in [0, 1]) frames to an animated, looping GIF.
 
-    Uses :func:`physlab.viz.anim.save_gif`; the file appears atomically. Returns the Path.
+    Written with imageio (looping, ``1000 / fps`` ms per frame); the file appears atomically.
+    Returns the Path.
     """
-    from physlab.viz.anim import save_gif
+    import imageio.v3 as iio
 
     f = _frames_uint8(frames)
     fps = _check_fps(fps)
-    return atomic_write(path, lambda tmp: save_gif(f, tmp, fps=fps), ".gif")
+    return atomic_write(path, lambda tmp: iio.imwrite(tmp, f, duration=1000 / fps, loop=0),
+                        ".gif")
 
 
 def _last_line(e):

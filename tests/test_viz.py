@@ -21,7 +21,11 @@ def test_save_gif_roundtrip(tmp_path):
 
     frames = np.zeros((4, 16, 20, 3), np.uint8)
     frames[:, :, :, 0] = np.arange(4)[:, None, None] * 60
-    path = anim.save_gif(frames, tmp_path / "a.gif", fps=10)
+    from physlab.render import frames_to_gif
+
+    path = frames_to_gif(frames, tmp_path / "a.gif", fps=10)
+    with pytest.warns(DeprecationWarning, match="moved to physlab.render.frames_to_gif"):
+        assert anim.save_gif(frames, tmp_path / "b.gif", fps=10).read_bytes() == path.read_bytes()
     back = iio.imread(path, index=None)
     assert back.shape[0] == 4 and back.shape[1:3] == (16, 20)
     assert back[3, 0, 0, 0] == 180

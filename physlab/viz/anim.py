@@ -78,11 +78,12 @@ def animate_springs(xs, edges, fixed=(), t=None, fps=30, max_frames=90, limits=N
 
 
 def save_gif(frames, path, fps=20):
-    """Write RGB(A) uint8 frames ``(T, H, W, 3|4)`` to an animated GIF with imageio."""
-    import imageio.v3 as iio
+    """Deprecated: use :func:`physlab.render.frames_to_gif` (the one home of frames → GIF /
+    MP4 / HTML, atomic and validated). Kept for one release; warns."""
+    import warnings
 
-    frames = np.asarray(frames)
-    if frames.dtype != np.uint8:
-        frames = (np.clip(frames, 0, 1) * 255).astype(np.uint8)
-    iio.imwrite(path, frames, duration=1000 / fps, loop=0)
-    return path
+    from physlab.render import frames_to_gif
+
+    warnings.warn("physlab.viz.anim.save_gif moved to physlab.render.frames_to_gif; the old "
+                  "name goes in the next release", DeprecationWarning, stacklevel=2)
+    return frames_to_gif(frames, path, fps=fps)
