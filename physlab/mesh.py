@@ -241,6 +241,9 @@ class TriMesh:
                              f"{tris[t].tolist()} appears {int(counts[dup[0]])} times (with any "
                              f"vertex order); remove duplicates, e.g. with np.unique(np.sort(tris, "
                              f"axis=1), axis=0)")
+        if np.abs(X).max(initial=0.0) > 1e100:
+            raise ValueError(f"X has coordinates up to {np.abs(X).max():.3g}; vertex "
+                             f"positions must be below 1e100 (areas would overflow)")
         area = triangle_areas(X, tris)
         scale = float(np.ptp(X[tris.ravel()], axis=0).max())
         bad = np.flatnonzero(np.abs(area) <= 1e-12 * scale**2)

@@ -260,6 +260,12 @@ def test_trimesh_rejects_bad_triangles(tris, match):
         M.TriMesh(X, np.array(tris))
 
 
+def test_trimesh_refuses_coordinates_whose_areas_overflow():
+    X = np.array([[0.0, 0.0], [1e154, 0], [0, 1e154]])
+    with pytest.raises(ValueError, match="coordinates up to 1e\\+154"):
+        M.TriMesh(X, np.array([[0, 1, 2]]))
+
+
 def test_triangle_count_is_bounded_before_calling_triangle():
     square = np.array([[0.0, 0], [1000, 0], [1000, 1000], [0, 1000]])
     with pytest.raises(ValueError, match=r"limit of 2,000,000; choose max_area >= 0\.5"):
