@@ -173,16 +173,37 @@ def ode_demo(dt=0.02, method="explicit_euler", t_end=10.0, k=40.0, m=1.0, gamma=
     with np.errstate(over="ignore", invalid="ignore"):
         dE = p.energy(r.y) - E0
     b.plot(r.t, dE, color=plots.METHOD_COLORS[method])
+    dE_exact = p.energy(ex) - E0 if p.gamma > 0 else np.zeros(1)
     if p.gamma > 0:  # the exact motion loses energy to damping
-        b.plot(te, p.energy(ex) - E0, "k", lw=1)
+        b.plot(te, dE_exact, "k", lw=1)
     else:  # it keeps it exactly (evaluating it would only draw round-off noise)
         b.axhline(0.0, color="k", lw=1)
     b.set_xlabel("t (s)")
     b.set_ylabel("E(t) - E(0) (J)")
     # symlog: decades of growth or decay stay readable; the linear band around 0 is narrower
     # than the drift (a 4th-order drift of 1e-11 J gets decade ticks too)
-    drift = np.abs(dE[np.isfinite(dE)]).max(initial=0.0)
+    shown = np.concatenate([dE[np.isfinite(dE)], dE_exact, [0.0]])
+    drift = np.abs(shown).max()
     b.set_yscale("symlog", linthresh=max(1e-300, min(1e-3, drift / 1e3)) if drift > 0 else 1e-3)
+    T = b.yaxis.get_transform()  # 5 % margins in the symlog coordinates, not in joules
+    lo, hi = T.transform([shown.min(), shown.max()])
+    pad = 0.05 * (hi - lo) if hi > lo else 1.0
+    with np.errstate(over="ignore"):
+        lims = np.clip(T.inverted().transform([lo - pad, hi + pad]), -1e300, 1e300)  # blow-ups
+    half = 0.5 * T.linthresh  # one-signed drifts: no crowded ±linthresh tick beside 0
+    if shown.min() >= 0:
+        lims[0] = max(lims[0], -half)
+    if shown.max() <= 0:
+        lims[1] = min(lims[1], half)
+    b.set_ylim(*lims)
+    # readable ticks: at most ~8 decades labelled, none crowding the label "0"
+    ticks = np.asarray(b.yaxis.get_major_locator()())
+    ticks = ticks[(ticks >= lims[0]) & (ticks <= lims[1])]
+    step = int(np.ceil(len(ticks) / 8))
+    neg, pos = ticks[ticks < 0][::step], ticks[ticks > 0][::-1][::step]  # from the far ends
+    t_ticks, (t_lo, t_hi) = T.transform(np.concatenate([neg, pos])), T.transform(lims)
+    far = np.abs(t_ticks - T.transform([0.0])[0]) > 0.07 * (t_hi - t_lo)
+    b.set_yticks(np.sort(np.concatenate([np.concatenate([neg, pos])[far], ticks[ticks == 0]])))
     title = f"{method}, dt = {dt:.3g} s, ω·dt = {np.sqrt(k / m) * dt:.2f}"
     if blew:
         title += f" — blew up at step {blew}"
