@@ -132,6 +132,11 @@ def _positive(value, name):
     return _check.number(value, name, lo=0, lo_open=True)
 
 
+def _check_choice(value, name, choices):
+    if not isinstance(value, str) or value not in choices:
+        raise ValueError(f"unknown {name} {value!r}; valid values are: {', '.join(choices)}")
+
+
 def _two_panels(width, height, left=0.08, bottom=0.15, top=0.87, gap=0.10):
     """A ``width`` × ``height`` in figure with two side-by-side axes at fixed positions:
     constrained layout would double the drawing time of every widget redraw."""
@@ -142,8 +147,12 @@ def _two_panels(width, height, left=0.08, bottom=0.15, top=0.87, gap=0.10):
     return fig, (a, b)
 
 
+@functools.lru_cache(maxsize=32)
 def _run(problem, dt, method, t_end):
-    """Integrate, returning ``(result, blew_up_step or None)``; a blow-up keeps the partial run."""
+    """Integrate, returning ``(result, blew_up_step or None)``; a blow-up keeps the partial run.
+    Cached (``problem`` is a frozen :class:`HangingSpring`): a widget redrawn with the same
+    values, or another panel of the same run, does not integrate again. Callers must not modify
+    the returned arrays."""
     try:
         return integrate(problem.f, problem.y0, (0.0, t_end), dt, method, jac=problem.jac), None
     except SimulationDiverged as err:
@@ -156,7 +165,8 @@ def ode_demo(dt=0.02, method="explicit_euler", t_end=10.0, k=40.0, m=1.0, gamma=
     ``dt``, ``t_end`` in s (``t_end`` > 0); ``method`` one of :data:`METHODS`; ``k`` N/m,
     ``m`` kg, ``gamma`` N·s/m as in :class:`HangingSpring`."""
     p = HangingSpring(k=k, m=m, gamma=gamma)
-    t_end = _positive(t_end, "t_end (s)")
+    dt, t_end = _positive(dt, "dt (s)"), _positive(t_end, "t_end (s)")
+    _check_choice(method, "method", METHODS)
     r, blew = _run(p, dt, method, t_end)
     te = np.linspace(0, t_end, 800)
     ex = p.exact(te)
@@ -265,7 +275,7 @@ def stiff_spring_demo(k=4000.0, dt=0.02, t_end=2.0, m=1.0, gamma=0.5):
 
     ``k`` N/m, ``dt`` and ``t_end`` s (> 0), ``m`` kg, ``gamma`` N·s/m."""
     p = HangingSpring(k=k, m=m, gamma=gamma)
-    t_end = _positive(t_end, "t_end (s)")
+    dt, t_end = _positive(dt, "dt (s)"), _positive(t_end, "t_end (s)")
     fig, ax = plots.new_figure(width=5.0, height=3.2)
     te = np.linspace(0, t_end, 2000)
     ax.plot(te, p.exact(te)[:, 1], "k", lw=0.8, label="exact")
@@ -344,11 +354,6 @@ def _check_system(system, name="system"):
     if not isinstance(system, springs.SpringSystem):
         raise TypeError(f"{name} must be a physlab.springs.SpringSystem (e.g. make_scene('chain')), "
                         f"got {type(system).__name__}")
-
-
-def _check_choice(value, name, choices):
-    if not isinstance(value, str) or value not in choices:
-        raise ValueError(f"unknown {name} {value!r}; valid values are: {', '.join(choices)}")
 
 
 @functools.lru_cache(maxsize=1)

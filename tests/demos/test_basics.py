@@ -115,7 +115,7 @@ def test_make_scene_validates():
     (lambda: basics.HangingSpring(anchor=(0.0,)), ValueError, r"HangingSpring\.anchor must have 2"),
     (lambda: basics.ode_demo(t_end=0.0), ValueError, r"t_end \(s\) must be > 0"),
     (lambda: basics.ode_demo(k=-40.0), ValueError, r"HangingSpring\.k must be > 0"),
-    (lambda: basics.ode_demo(method="euler"), ValueError, "valid methods are"),
+    (lambda: basics.ode_demo(method="euler"), ValueError, "unknown method .euler.; valid values are: explicit_euler"),
     (lambda: basics.convergence_study(dts=(0.01,)), ValueError, "at least two different time steps"),
     (lambda: basics.convergence_study(dts=(0.01, -0.005)), ValueError, r"each of dts \(s\) must be > 0"),
     (lambda: basics.convergence_study(dts=0.01), TypeError, "dts must be a sequence"),
@@ -250,3 +250,18 @@ def test_ode_demo_energy_axis_resolves_small_drift():
     drift = np.abs(ax.lines[0].get_ydata()).max()
     assert 0 < drift < 1e-6
     assert ax.yaxis.get_transform().linthresh <= drift / 100  # the drift spans log decades
+
+
+def test_ode_callbacks_validate_before_caching_and_reuse_runs(monkeypatch):
+    for call, match in ((lambda: basics.ode_demo(dt=[0.02]), r"dt \(s\) must be a number"),
+                        (lambda: basics.ode_demo(method=["rk4"]), "unknown method"),
+                        (lambda: basics.stiff_spring_demo(dt=0.0), r"dt \(s\) must be > 0")):
+        with pytest.raises((TypeError, ValueError), match=match):
+            call()
+    basics._run.cache_clear()
+    calls = []
+    real = basics.integrate
+    monkeypatch.setattr(basics, "integrate", lambda *a, **k: calls.append(a[4]) or real(*a, **k))
+    basics.stiff_spring_demo(k=4000.0, dt=0.02)
+    basics.stiff_spring_demo(k=4000.0, dt=0.02)  # the same values: no new integration
+    assert sorted(calls) == ["explicit_euler", "implicit_euler"]
