@@ -10,7 +10,8 @@ never goes stale: a new ``interact`` is measured as soon as a lesson has it. A c
 its step grid; log sliders in log space) or by picking the next option of a dropdown.
 
 Per call the best of ``--repeat`` runs is kept ("warm"; the first run is reported separately
-as "cold": it pays for caches and imports). Target of the classroom issue, on a 2-core
+as "cold": it pays for caches and imports). A call's time includes drawing the figure it
+returns to PNG, as JupyterLab does before the student sees it (``--no-render``: callback only). Target of the classroom issue, on a 2-core
 machine of this project: median <= 0.3 s, every warm call <= 1.0 s. A trivial matplotlib
 figure is timed in the same run as a reference, so other machines can scale the numbers.
 """
@@ -159,13 +160,29 @@ def _widget(lesson, k, node, ns, where):
                   fixed)
 
 
-def _time(fn, repeat):
+def _png(fig):
+    """Render ``fig`` to PNG bytes as JupyterLab's inline backend does (what the student
+    waits for after the callback returns)."""
+    try:
+        from IPython.core.pylabtools import print_figure
+    except ImportError:  # no IPython: plain savefig
+        import io
+
+        buf = io.BytesIO()
+        fig.savefig(buf, format="png", bbox_inches="tight")
+        return buf.getvalue()
+    return print_figure(fig, "png", bbox_inches="tight")
+
+
+def _time(fn, repeat, render=True):
     import matplotlib.pyplot as plt
 
     times = []
     for _ in range(repeat):
         t0 = time.perf_counter()
         fig = fn()
+        if render and fig is not None and hasattr(fig, "savefig"):
+            _png(fig)
         times.append(time.perf_counter() - t0)
         plt.close(fig) if fig is not None else None
     return times
@@ -184,16 +201,17 @@ def reference_seconds(repeat=3):
     return min(_time(trivial, repeat))
 
 
-def measure(widgets, repeat=2):
+def measure(widgets, repeat=2, render=True):
     """Rows ``{lesson, cell, callback, control, value, cold, warm}``: each widget at its
-    defaults (control "—") and with each control moved once."""
+    defaults (control "—") and with each control moved once; with ``render`` the time
+    includes drawing the returned figure to PNG, as the notebook does."""
     rows = []
     for w in widgets:
         base = {k: c.value for k, c in w.controls.items()} | w.fixed
         cases = [("—", None, base)] + [
             (name, c.moved(), base | {name: c.moved()}) for name, c in w.controls.items()]
         for name, value, kw in cases:
-            times = _time(lambda kw=kw: w.callback(**kw), max(1, repeat))
+            times = _time(lambda kw=kw: w.callback(**kw), max(1, repeat), render)
             rows.append(dict(lesson=w.lesson[:2], cell=w.cell, callback=w.name, control=name,
                              value=value, cold=times[0],
                              warm=min(times[1:]) if len(times) > 1 else times[0]))
@@ -236,6 +254,8 @@ def main(argv=None):
     ap.add_argument("--repeat", type=int, default=2, help="runs per call (best kept; >= 1)")
     ap.add_argument("--json", type=Path, default=None, help="also write the rows here")
     ap.add_argument("--quick", action="store_true", help="lesson 02 only, one run (tests)")
+    ap.add_argument("--no-render", action="store_true",
+                    help="time the callbacks only, not drawing their figures to PNG")
     args = ap.parse_args(argv)
     if args.repeat < 1:
         ap.error(f"--repeat must be >= 1, got {args.repeat}")
@@ -244,7 +264,7 @@ def main(argv=None):
     if not widgets:
         ap.error(f"no interact widget in the lessons {select or 'all'}")
     ref = reference_seconds()
-    rows = measure(widgets, repeat=1 if args.quick else args.repeat)
+    rows = measure(widgets, repeat=1 if args.quick else args.repeat, render=not args.no_render)
     text, summary = report(rows, ref)
     print(text)
     if args.json is not None:

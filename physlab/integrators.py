@@ -675,7 +675,10 @@ class LinearSolver:
         for this solve, e.g. an inexact-Newton forcing term."""
         self.stats["solves"] += 1
         if A.shape[0] <= DENSE_MAX:  # tiny systems: LAPACK beats any sparse machinery
-            return np.linalg.solve(A.toarray(), b)
+            if self._controller is False:
+                self._controller = _threadpool_controller()
+            with _single_threaded_blas(self._controller):  # threads cost more than they gain
+                return np.linalg.solve(A.toarray(), b)
         kind = self.resolve(A.shape[0])
         if kind == "direct":
             z = self._factor(A)(b)

@@ -123,7 +123,7 @@ class SpringSystem:
             raise ValueError("free (not fixed) particles need a mass > 0")
         self.mass = mass
 
-        self.damping = _check.number(damping, "damping γ (1/s)", lo=0)
+        self.damping = _check.number(damping, "damping γ (N·s/m)", lo=0)
         if gravity is None:
             gravity = (0.0, -9.81) if d == 2 else (0.0, -9.81, 0.0)
         self.gravity = self._floats("gravity", gravity).reshape(-1)

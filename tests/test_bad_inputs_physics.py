@@ -29,9 +29,9 @@ def test_free_fall_is_not_a_blow_up():
 
 X2 = [[0.0, 0.0], [1.0, 0.0]]
 SPRING_CASES = [
-    (dict(damping=float("nan")), ValueError, r"damping γ \(1/s\) must be finite"),
-    (dict(damping=-1.0), ValueError, r"damping γ \(1/s\) must be >= 0"),
-    (dict(damping="a"), TypeError, r"damping γ \(1/s\) must be a number"),
+    (dict(damping=float("nan")), ValueError, r"damping γ \(N·s/m\) must be finite"),
+    (dict(damping=-1.0), ValueError, r"damping γ \(N·s/m\) must be >= 0"),
+    (dict(damping="a"), TypeError, r"damping γ \(N·s/m\) must be a number"),
     (dict(gravity=(0.0, float("nan"))), ValueError, r"gravity must be finite"),
     (dict(gravity=(0.0, 1.0, 2.0)), ValueError, r"gravity must have 2 components"),
     (dict(ground=0.0, ground_stiffness=-5.0), ValueError, r"ground_stiffness must be >= 0"),

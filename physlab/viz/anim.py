@@ -33,8 +33,8 @@ def to_html(anim, fmt="video"):
 
 
 def animate_springs(xs, edges, fixed=(), t=None, fps=30, max_frames=90, limits=None,
-                    size=(4.0, 3.2), ground=None, fmt="video", html=True):
-    """Animate a 2-D spring system trajectory ``xs`` (T, n, 2).
+                    size=(4.0, 3.2), ground=None, fmt="video", html=True, unit="m"):
+    """Animate a 2-D spring system trajectory ``xs`` (T, n, 2); axes labelled in ``unit``.
 
     Frames are subsampled to at most ``max_frames``; playback at ``fps``. Returns an
     :class:`IPython.display.HTML` object (``html=True``) or the FuncAnimation.
@@ -51,6 +51,8 @@ def animate_springs(xs, edges, fixed=(), t=None, fps=30, max_frames=90, limits=N
     ax.set_xlim(limits[0], limits[1])
     ax.set_ylim(limits[2], limits[3])
     ax.set_aspect("equal")
+    ax.set_xlabel(f"x ({unit})")
+    ax.set_ylabel(f"y ({unit})")
     if ground is not None:
         ax.axhspan(limits[2], ground, color="0.85", zorder=0)
     lc = LineCollection(xs[0][edges], colors="0.3", linewidths=0.8)
