@@ -10,7 +10,9 @@ and :mod:`physlab.viz.view3d`; this module only wires them together.
 
 Conventions: joints are ``(T, 22, 3)`` float arrays in metres, y up, in the canonical window
 frame (pelvis of frame 0 at ``x = z = 0`` facing ``+z``); a generated clip has ``T = 40``
-frames (2 s at 20 fps) and ``39`` feature rows of ``D = 137`` numbers. Features called
+frames (2 s at 20 fps); the shipped checkpoints denoise its 40 ``"absolute"`` feature rows of
+``D = 70`` numbers (HumanML3D-style ``"relative"`` checkpoints: 39 rows of 137, the features
+lesson 09 explains first; :data:`~physlab.motion.features.REPRESENTATIONS`). Features called
 "normalised" are ``(f - mean) / std`` with the checkpoint's
 :class:`~physlab.motion.features.FeatureStats`: the space the diffusion runs in.
 
@@ -37,7 +39,8 @@ from physlab.motion.features import (
     ROOT_ANG_VEL,
     ROOT_HEIGHT,
     ROOT_LIN_VEL,
-    features_to_joints,
+    decode_motion,
+    encode_motion,
     joints_to_features,
 )
 from physlab.motion.skeleton import JOINT_NAMES
@@ -386,16 +389,19 @@ def walk_figure(joints, text="", backend="auto"):
 
 # ---------------------------------------------------------------------------- Sec. 3: noising
 def normalized_features(joints, checkpoint=None):
-    """``x_0``: the (39, 137) normalised features of a 40-frame clip, in the space the
-    checkpoint's diffusion runs in (``(f - mean) / std``, float64)."""
-    return generator(checkpoint).stats.normalize(joints_to_features(joints, fps=FPS))
+    """``x_0``: the normalised features of a 40-frame clip in the space the checkpoint's
+    diffusion runs in (``(f - mean) / std``, float64): (39, 137) for HumanML3D-style
+    ``"relative"`` features, (40, 70) for ``"absolute"`` ones (the shipped checkpoints)."""
+    g = generator(checkpoint)
+    return g.stats.normalize(encode_motion(joints, g.config.representation, fps=FPS))
 
 
 def decode(x, checkpoint=None):
-    """Joints (40, 22, 3) (m) of normalised features ``x`` (39, 137): de-normalise, then the
-    exact inverse :func:`~physlab.motion.features.features_to_joints` (the ``R(.)`` of
-    Sketch2Anim Eqs. (6) and (8))."""
-    return features_to_joints(generator(checkpoint).stats.denormalize(np.asarray(x, float)))
+    """Joints (40, 22, 3) (m) of normalised features ``x``: de-normalise, then the exact
+    inverse (:func:`~physlab.motion.features.decode_motion`; the ``R(.)`` of Sketch2Anim
+    Eqs. (6) and (8))."""
+    g = generator(checkpoint)
+    return decode_motion(g.stats.denormalize(np.asarray(x, float)), g.config.representation)
 
 
 def noised_features(x0, scheduler, ts=NOISE_LEVELS, seed=0):
@@ -810,7 +816,7 @@ def _held_out(windows, data_root, held_out_windows):
 
 
 def control_comparison(windows=6, seed=0, steps=50, guidance_scale=7.5, checkpoint=None,
-                       data_root=None):
+                       data_root=None, body_constraints=True):
     """Text only vs. keypose + trajectories on held-out windows.
 
     ``windows`` held-out take-002 windows (:func:`~physlab.motion.evaluate.held_out_windows`;
@@ -825,6 +831,8 @@ def control_comparison(windows=6, seed=0, steps=50, guidance_scale=7.5, checkpoi
     * ``guided`` — the same plus the inference guidance (Sketch2Anim supp. C: L-BFGS on the
       last x̂₀ against the decoded keypose / trajectory losses, Eqs. (6), (8);
       :data:`~physlab.motion.evaluate.GUIDED`).
+
+    ``body_constraints`` is passed to the generator (rigid bones, feet above the floor).
 
     Returns
     -------
@@ -860,7 +868,7 @@ def control_comparison(windows=6, seed=0, steps=50, guidance_scale=7.5, checkpoi
             for i, c in enumerate(conds):
                 kw = {} if opts is None else {**condition_kwargs(c), **opts}
                 xs.append(gen(data["text"][i], seed=seed + i, guidance_scale=w,
-                              steps=int(steps), **kw))
+                              steps=int(steps), body_constraints=body_constraints, **kw))
             out[key] = np.stack(xs)
             rows[CONTROL_ROWS[key][0]] = clip_metrics(
                 out[key], conds, (time.perf_counter() - tic) / len(conds))

@@ -38,6 +38,11 @@ Columns (:mod:`physlab.motion.metrics`):
   :data:`~physlab.motion.metrics.HUMANML3D_GT_PEAK_JERK`, per-frame units, as published).
   Sketch2Anim evaluates them on the 20 blended frames; here on whole 40-frame clips, so
   compare rows with the ``real clips`` row, not with the paper;
+* body checks: ``bone std`` the largest over clips of the worst bone's length std over
+  frames (m); ``feet < −2 cm`` the mean fraction of frames with a foot joint more than 2 cm
+  below the floor; ``edge step ratio`` the largest over clips with a partial trajectory of
+  the joint step where the trajectory starts or ends divided by the clip's median step
+  (:mod:`~physlab.motion.metrics`);
 * seconds per clip: wall time of one :class:`~physlab.motion.sampling.Generator` call
   (``steps`` DDIM steps, CFG as a batch of 2); 0 for the real clips.
 
@@ -81,7 +86,16 @@ from .dataset import (
     read_labels,
     split_by_take,
 )
-from .metrics import HUMANML3D_GT_PEAK_JERK, foot_skating_ratio, jerk, mpjpe, trajectory_error
+from .metrics import (
+    HUMANML3D_GT_PEAK_JERK,
+    bone_length_variation,
+    boundary_step_ratio,
+    floor_penetration,
+    foot_skating_ratio,
+    jerk,
+    mpjpe,
+    trajectory_error,
+)
 
 __all__ = [
     "COLUMNS",
@@ -113,6 +127,9 @@ COLUMNS = {
     "trajectory_error_3d": "traj. err.-3D (m) ↓",
     "auj": "AUJ ↓",
     "pj": "PJ",
+    "bone_variation": "bone std (m) ↓",
+    "floor_penetration": "feet < −2 cm ↓",
+    "boundary_step_ratio": "edge step ratio ↓",
     "seconds_per_clip": "s / clip",
 }
 #: Shortest trajectory drawn for a test condition (frames), as in training.
@@ -195,13 +212,19 @@ def clip_metrics(motions, conds, seconds=0.0):
     key = np.stack([x[i, c.key_frame] for i, c in enumerate(conds)])       # (n, 22, 3)
     K = np.stack([c.keypose for c in conds])                               # (n, 22, 3)
     auj, pj = jerk(x, reference=HUMANML3D_GT_PEAK_JERK)
+    ratios = [r for r in (boundary_step_ratio(m, c.mask) for m, c in zip(x, conds))
+              if np.isfinite(r)]                                   # clips with a partial stroke
     return {
         "foot_skating": float(np.mean(foot_skating_ratio(x))),
         "keypose_mpjpe_3d": mpjpe(key, K),                 # equal joints per clip: mean of means
         "trajectory_error_3d": trajectory_error(
             x, np.stack([c.trajectory for c in conds]), TRAJECTORY_JOINTS,
             np.stack([c.mask for c in conds])),            # pooled over controlled points
-        "auj": auj, "pj": pj, "seconds_per_clip": float(seconds), "n_clips": len(x),
+        "auj": auj, "pj": pj,
+        "bone_variation": float(np.max(bone_length_variation(x))),
+        "floor_penetration": float(np.mean(floor_penetration(x))),
+        "boundary_step_ratio": max(ratios) if ratios else float("nan"),
+        "seconds_per_clip": float(seconds), "n_clips": len(x),
     }
 
 
@@ -241,7 +264,7 @@ def _load(path, flag):
 
 
 def _sample(gen, data, conds, controlled, steps, guidance, seed, progress, label,
-            guided=False):
+            guided=False, body_constraints=True):
     from tqdm.auto import tqdm
 
     out, total = [], 0.0
@@ -250,13 +273,13 @@ def _sample(gen, data, conds, controlled, steps, guidance, seed, progress, label
               if controlled else {})
         tic = time.perf_counter()
         out.append(gen(data["text"][i], seed=seed + i, guidance_scale=guidance, steps=steps,
-                       **kw))                                              # (40, 22, 3)
+                       body_constraints=body_constraints, **kw))           # (40, 22, 3)
         total += time.perf_counter() - tic
     return np.stack(out), total / len(conds)
 
 
 def evaluate(control, single_controlnet=None, windows=64, steps=50, guidance=7.5, seed=0,
-             out=None, progress=True, data_root=None):
+             out=None, progress=True, data_root=None, body_constraints=True):
     """Evaluate a control checkpoint on held-out Bandai-Namco windows (module docstring).
 
     Keyword names match the CLI flags.
@@ -272,6 +295,9 @@ def evaluate(control, single_controlnet=None, windows=64, steps=50, guidance=7.5
     out : None or a folder: writes ``table.md`` and ``rows.json`` there (atomically).
     progress : bool, tqdm bars.
     data_root : None or the Bandai-Namco folder.
+    body_constraints : bool, the generator's rigid-bone / floor projection
+        (:func:`~physlab.motion.body.constrain_body`); False measures the networks' raw
+        output.
 
     Returns
     -------
@@ -291,7 +317,10 @@ def evaluate(control, single_controlnet=None, windows=64, steps=50, guidance=7.5
 
     data = held_out_windows(n, data_root=data_root)
     conds = eval_conditions(data["joints"], seed=seed)
-    kw = {"steps": int(steps), "guidance": float(guidance), "seed": int(seed), "progress": progress}
+    if not isinstance(body_constraints, (bool, np.bool_)):
+        raise TypeError(f"body_constraints must be True or False, got {body_constraints!r}")
+    kw = {"steps": int(steps), "guidance": float(guidance), "seed": int(seed), "progress": progress,
+          "body_constraints": bool(body_constraints)}
     rows = {"real clips": clip_metrics(data["joints"], conds)}
     x, s = _sample(gens["keypose + trajectory"], data, conds, False, label="text only", **kw)
     rows["text only"] = clip_metrics(x, conds, s)
@@ -307,7 +336,7 @@ def evaluate(control, single_controlnet=None, windows=64, steps=50, guidance=7.5
                   is None else str(single_controlnet), "windows": len(conds),
                   "windows_available": data["n_available"], "steps": int(steps),
                   "guidance": float(guidance), "seed": int(seed), "min_t_r": MIN_T_R,
-                  "test_takes": list(TEST_TAKES)}
+                  "test_takes": list(TEST_TAKES), "body_constraints": bool(body_constraints)}
         atomic_write_text(out / "table.md", format_table(rows) + "\n")
         atomic_write_text(out / "rows.json", json.dumps(
             {"rows": rows, "config": config, "attribution": BANDAI_NAMCO_ATTRIBUTION},
@@ -459,6 +488,8 @@ def _parser():
     p.add_argument("--adherence-seeds", type=int, default=4,
                    help="clips per action text in the adherence check (default 4)")
     p.add_argument("--no-progress", action="store_true", help="no progress bars")
+    p.add_argument("--no-body-constraints", action="store_true",
+                   help="measure the networks' raw joints (no rigid-bone / floor projection)")
     return p
 
 
@@ -470,7 +501,8 @@ def main(argv=None):
         rows = evaluate(args.control, single_controlnet=args.single_controlnet,
                         windows=args.windows, steps=args.steps, guidance=args.guidance,
                         seed=args.seed, out=args.out, progress=not args.no_progress,
-                        data_root=args.data_root)
+                        data_root=args.data_root,
+                        body_constraints=not args.no_body_constraints)
         adherence = None
         if args.adherence:
             adherence = text_adherence(args.control, seeds=args.adherence_seeds,

@@ -73,6 +73,10 @@ __all__ = [
     "LOCAL_VEL", "CONTACTS", "CONTACT_JOINTS", "CONTACT_HEIGHT", "CONTACT_SPEED",
     "FACE_JOINTS", "STD_FLOORS", "root_heading", "canonicalize", "foot_contacts",
     "joints_to_features", "features_to_joints", "FeatureStats",
+    "ABS_PELVIS", "ABS_BODY", "ABS_CONTACTS", "ABS_FEATURE_DIM", "ABS_FEATURE_GROUPS",
+    "ABS_STD_FLOORS", "REPRESENTATIONS", "check_representation",
+    "joints_to_absolute_features", "absolute_features_to_joints", "encode_motion",
+    "decode_motion",
 ]
 
 N_JOINTS = len(JOINT_NAMES)
@@ -303,10 +307,102 @@ def features_to_joints(features, include_last=True, initial_heading=0.0,
     return x
 
 
-def _group_of_columns():
-    """(FEATURE_DIM,) array of group names, one per column."""
-    names = np.empty(FEATURE_DIM, dtype=object)
-    for g, s in FEATURE_GROUPS.items():
+# ----------------------------------------------------------------------------- absolute
+
+
+#: Layout of the ``"absolute"`` representation (one row per frame): pelvis position in the
+#: canonical (window) frame, the other 21 joints relative to the pelvis (world axes, no
+#: heading rotation) and the four foot contacts. Decoding is a sum, so a trajectory or
+#: keypose condition at frame ``i`` is a function of row ``i`` alone.
+ABS_PELVIS = slice(0, 3)
+ABS_BODY = slice(3, 3 + 3 * (N_JOINTS - 1))                   # 3:66
+ABS_CONTACTS = slice(ABS_BODY.stop, ABS_BODY.stop + 4)        # 66:70
+ABS_FEATURE_DIM = ABS_CONTACTS.stop                           # 70
+ABS_FEATURE_GROUPS = {"pelvis": ABS_PELVIS, "body": ABS_BODY, "contacts": ABS_CONTACTS}
+#: Std floors of the absolute groups (m, m, contact); the data stds are >= 0.03 m.
+ABS_STD_FLOORS = {"pelvis": 5e-3, "body": 5e-3, "contacts": 0.1}
+
+#: Feature representations the generator can denoise: name -> (columns, rows of a motion of
+#: ``T`` frames minus ``T``). ``"relative"``: HumanML3D-style rows (module docstring), ``T - 1``
+#: rows; ``"absolute"``: :func:`joints_to_absolute_features`, ``T`` rows.
+REPRESENTATIONS = {"relative": (FEATURE_DIM, -1), "absolute": (ABS_FEATURE_DIM, 0)}
+
+
+def check_representation(representation):
+    """The name if it is a key of :data:`REPRESENTATIONS`, else ValueError."""
+    if representation not in REPRESENTATIONS:
+        raise ValueError(f"representation must be one of {sorted(REPRESENTATIONS)}, got "
+                         f"{representation!r}")
+    return representation
+
+
+def joints_to_absolute_features(joints, fps=20.0):
+    """The ``"absolute"`` features of a motion: ``(T, 22, 3)`` joints -> ``(T, 70)``.
+
+    Row ``i``: pelvis ``p_i`` (3, m), joints ``x_{i,j} - p_i`` for ``j = 1..21`` (63, m) and
+    the foot contacts of frame ``i`` (4; the last frame repeats those of frame ``T-2``).
+    Unlike :func:`joints_to_features` this is not invariant to the placement of the motion:
+    call it on canonical windows (:func:`canonicalize`), whose first pelvis is at
+    ``x = z = 0`` facing ``+z``. Its inverse, :func:`absolute_features_to_joints`, is a sum,
+    so a joint's position at frame ``i`` depends on row ``i`` only: the controlled generator
+    does not have to integrate velocities to place a trajectory (see
+    :mod:`physlab.motion.train`).
+
+    Parameters
+    ----------
+    joints : (T, 22, 3) float array, metres, y up; ``T >= 2``.
+    fps : float > 0, frame rate (contacts only).
+
+    Returns
+    -------
+    (T, ABS_FEATURE_DIM) float array.
+    """
+    x = _check_joints(joints, min_frames=2)
+    T = len(x)
+    f = np.empty((T, ABS_FEATURE_DIM))
+    f[:, ABS_PELVIS] = x[:, 0]
+    f[:, ABS_BODY] = (x[:, 1:] - x[:, :1]).reshape(T, -1)
+    c = foot_contacts(x, fps=fps)                                          # (T-1, 4)
+    f[:, ABS_CONTACTS] = np.concatenate([c, c[-1:]])
+    return f
+
+
+def absolute_features_to_joints(features):
+    """Joints ``(T, 22, 3)`` from ``"absolute"`` features ``(T, 70)`` (the exact inverse of
+    :func:`joints_to_absolute_features`; contacts are not used)."""
+    f = np.asarray(features, dtype=float)
+    if f.ndim != 2 or f.shape[1] != ABS_FEATURE_DIM or len(f) == 0:
+        raise ValueError(f"features must have shape (T, {ABS_FEATURE_DIM}) with T >= 1, got "
+                         f"{f.shape}")
+    if not np.all(np.isfinite(f)):
+        raise ValueError(f"features contains NaN or inf in rows "
+                         f"{np.flatnonzero(~np.isfinite(f).all(axis=1))[:5].tolist()}")
+    p = f[:, None, ABS_PELVIS]                                             # (T, 1, 3)
+    return np.concatenate([p, p + f[:, ABS_BODY].reshape(len(f), N_JOINTS - 1, 3)], axis=1)
+
+
+def encode_motion(joints, representation="relative", fps=20.0):
+    """Features of ``joints`` (T, 22, 3) in the named representation (:data:`REPRESENTATIONS`):
+    :func:`joints_to_features` or :func:`joints_to_absolute_features`."""
+    if check_representation(representation) == "absolute":
+        return joints_to_absolute_features(joints, fps=fps)
+    return joints_to_features(joints, fps=fps)
+
+
+def decode_motion(features, representation="relative"):
+    """Joints ``(T, 22, 3)`` of (denormalised) features in the named representation: the
+    inverse of :func:`encode_motion` (a relative motion starts canonically)."""
+    if check_representation(representation) == "absolute":
+        return absolute_features_to_joints(features)
+    return features_to_joints(features)
+
+
+def _group_of_columns(groups=None):
+    """Array of group names, one per column of the layout ``groups`` (name -> slice;
+    default :data:`FEATURE_GROUPS`)."""
+    groups = FEATURE_GROUPS if groups is None else groups
+    names = np.empty(max(s.stop for s in groups.values()), dtype=object)
+    for g, s in groups.items():
         names[s] = g
     return names
 
@@ -335,39 +431,43 @@ class FeatureStats:
             raise ValueError("mean must be finite and std > 0 in every dimension")
 
     @classmethod
-    def from_features(cls, features, floors=None):
+    def from_features(cls, features, floors=None, representation="relative"):
         """Statistics of a data set of feature rows.
 
         Parameters
         ----------
         features : (..., D) float array (e.g. ``(N, T-1, D)`` windows), or a list of
-            ``(T_k, D)`` arrays, with ``D = FEATURE_DIM``.
+            ``(T_k, D)`` arrays, with ``D`` the representation's width (``FEATURE_DIM`` or
+            ``ABS_FEATURE_DIM``).
         floors : None or dict group name -> minimum std; None takes :data:`STD_FLOORS`
-            (missing groups also take it).
+            (:data:`ABS_STD_FLOORS` for ``"absolute"``; missing groups also take it).
+        representation : a key of :data:`REPRESENTATIONS`.
 
         Returns
         -------
         :class:`FeatureStats`.
         """
+        absolute = check_representation(representation) == "absolute"
+        D = ABS_FEATURE_DIM if absolute else FEATURE_DIM
+        groups = ABS_FEATURE_GROUPS if absolute else FEATURE_GROUPS
         if isinstance(features, (list, tuple)):
-            rows = np.concatenate([np.asarray(a, dtype=float).reshape(-1, FEATURE_DIM)
+            rows = np.concatenate([np.asarray(a, dtype=float).reshape(-1, D)
                                    for a in features]) if features else np.zeros((0, 0))
         else:
             rows = np.asarray(features, dtype=float)
-            if rows.ndim < 1 or rows.shape[-1] != FEATURE_DIM:
-                raise ValueError(f"features must have shape (..., {FEATURE_DIM}), got "
-                                 f"{rows.shape}")
-            rows = rows.reshape(-1, FEATURE_DIM)
+            if rows.ndim < 1 or rows.shape[-1] != D:
+                raise ValueError(f"features must have shape (..., {D}), got {rows.shape}")
+            rows = rows.reshape(-1, D)
         if rows.shape[0] < 2:
             raise ValueError(f"need at least 2 feature rows for statistics, got {rows.shape[0]}")
         if not np.all(np.isfinite(rows)):
             raise ValueError("features contains NaN or inf")
-        floors = dict(STD_FLOORS, **(floors or {}))
-        unknown = sorted(set(floors) - set(FEATURE_GROUPS))
+        floors = dict(ABS_STD_FLOORS if absolute else STD_FLOORS, **(floors or {}))
+        unknown = sorted(set(floors) - set(groups))
         if unknown:
             raise ValueError(f"unknown feature groups {unknown}; expected "
-                             f"{', '.join(FEATURE_GROUPS)}")
-        floor = np.array([floors[g] for g in _group_of_columns()], dtype=float)
+                             f"{', '.join(groups)}")
+        floor = np.array([floors[g] for g in _group_of_columns(groups)], dtype=float)
         return cls(mean=rows.mean(axis=0), std=np.maximum(rows.std(axis=0), floor))
 
     def _check(self, f):

@@ -13,13 +13,15 @@ from .model import features_to_joints_torch
 __all__ = ["control_losses"]
 
 
-def control_losses(x0_hat, joints, cond, mean, std):
+def control_losses(x0_hat, joints, cond, mean, std, representation="relative"):
     """``L_tr`` (Eq. (6)) and ``L_key`` (Eq. (8)) of predicted clean features.
 
     Parameters
     ----------
     x0_hat : (B, T, D) normalised x̂₀ (Eq. (7)); joints : (B, T+1, 22, 3) ground truth (m);
-    cond : condition dict (:func:`condition_batch`); mean, std : (D,) tensors.
+    cond : condition dict (:func:`condition_batch`; an optional ``keypose_mask`` (B,) bool
+        leaves samples without a keypose out of L_key); mean, std : (D,) tensors.
+    representation : the features' representation (``DenoiserConfig.representation``).
 
     Returns
     -------
@@ -27,7 +29,8 @@ def control_losses(x0_hat, joints, cond, mean, std):
     squared distances, L_key the squared distance of the root-relative pose at the key
     frame, summed over the 22 joints (the norm of Eq. (8) is over the whole frame).
     """
-    pred = features_to_joints_torch(x0_hat * std + mean)                    # (B, N, J, 3) R(x̂₀)
+    pred = features_to_joints_torch(x0_hat * std + mean,                    # (B, N, J, 3) R(x̂₀)
+                                    representation=representation)
     tj = list(TRAJECTORY_JOINTS)
     m = cond["traj_mask"].to(pred.dtype)                                     # (B, N, 6)
     d2 = ((pred[:, :, tj] - joints[:, :, tj]) ** 2).sum(-1)                  # (B, N, 6)
@@ -36,5 +39,11 @@ def control_losses(x0_hat, joints, cond, mean, std):
     kf = cond["key_frame"]
     rel_p = pred[b, kf] - pred[b, kf, :1]                                    # (B, J, 3) R'(x̂₀)
     rel_g = joints[b, kf] - joints[b, kf, :1]
-    l_key = ((rel_p - rel_g) ** 2).sum((1, 2)).mean()                        # Eq. (8), m'_i one-hot
+    e_key = ((rel_p - rel_g) ** 2).sum((1, 2))                               # Eq. (8), m'_i one-hot
+    km = cond.get("keypose_mask")
+    if km is None:
+        l_key = e_key.mean()
+    else:
+        km = km.to(e_key.dtype)
+        l_key = (km * e_key).sum() / km.sum().clamp(min=1)
     return l_tr, l_key

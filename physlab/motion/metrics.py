@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .skeleton import joint_index
+from .skeleton import FOOT_JOINTS, bone_lengths, joint_index
 
 __all__ = [
     "SKATING_FEET", "SKATING_HEIGHT", "SKATING_SPEED", "SKATING_WINDOW",
@@ -252,3 +252,48 @@ def jerk(joints, fps=None, reference=0.0):
     j = np.atleast_2d(jerk_curve(joints, fps=fps)).mean(axis=0)            # (T-3,)
     dt = 1.0 if fps is None else 1.0 / float(fps)
     return float(np.abs(j - reference).sum() * dt), float(j.max())
+
+
+# ----------------------------------------------------------------------------- body checks
+
+
+def bone_length_variation(joints):
+    """Worst bone's length variation of each clip: ``max_bone std_t |x_j − x_parent(j)|`` (m).
+
+    joints : (T, 22, 3) or (B, T, 22, 3). Returns a float or a (B,) array; 0 for a rigid
+    skeleton (real mocap: ~1e-3 m after retargeting)."""
+    x, single = _as_batch(joints, min_frames=1)
+    v = np.stack([bone_lengths(c).std(axis=0).max() for c in x])
+    return float(v[0]) if single else v
+
+
+def floor_penetration(joints, tolerance=0.02, feet=FOOT_JOINTS):
+    """Fraction of frames in which a foot joint (ankles, toes) is more than ``tolerance``
+    (m) below the floor ``y = 0``. joints : (T, 22, 3) or (B, T, 22, 3); returns a float or a
+    (B,) array."""
+    x, single = _as_batch(joints, min_frames=1)
+    v = (x[:, :, list(feet), 1].min(axis=-1) < -float(tolerance)).mean(axis=1)
+    return float(v[0]) if single else v
+
+
+def boundary_step_ratio(joints, mask):
+    """How much a clip jumps where a partial trajectory condition starts or ends: the
+    largest frame-to-frame joint step at a boundary frame of ``mask`` divided by the clip's
+    median step (median over frames of the largest joint step). 1 means no visible jump.
+
+    Parameters
+    ----------
+    joints : (T, 22, 3) float array (m).
+    mask : (T, R) bool trajectory mask (:class:`~physlab.motion.dataset.Condition`).
+
+    Returns
+    -------
+    float, or NaN when the mask has no boundary inside the clip (all or nothing).
+    """
+    x, _ = _as_batch(joints, min_frames=2)
+    m = np.asarray(mask, dtype=bool).any(axis=-1)                          # (T,)
+    step = np.linalg.norm(np.diff(x[0], axis=0), axis=-1).max(axis=-1)      # (T-1,)
+    edges = np.flatnonzero(m[1:] != m[:-1])                                 # step k: k -> k+1
+    if edges.size == 0:
+        return float("nan")
+    return float(step[edges].max() / max(np.median(step), 1e-9))

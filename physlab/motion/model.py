@@ -57,7 +57,20 @@ import torch.nn.functional as F
 from torch import nn
 
 from .dataset import TRAJECTORY_JOINTS
-from .features import FEATURE_DIM, LOCAL_VEL, N_JOINTS, RIC, ROOT_ANG_VEL, ROOT_HEIGHT, ROOT_LIN_VEL
+from .features import (
+    ABS_BODY,
+    ABS_FEATURE_DIM,
+    ABS_PELVIS,
+    FEATURE_DIM,
+    LOCAL_VEL,
+    N_JOINTS,
+    REPRESENTATIONS,
+    RIC,
+    ROOT_ANG_VEL,
+    ROOT_HEIGHT,
+    ROOT_LIN_VEL,
+    check_representation,
+)
 
 __all__ = [
     "ControlledDenoiser",
@@ -70,6 +83,7 @@ __all__ = [
     "check_condition",
     "count_parameters",
     "features_to_joints_torch",
+    "low_pass_matrix",
     "timestep_embedding",
 ]
 
@@ -97,8 +111,17 @@ class DenoiserConfig:
     cond_drop_prob: float = 0.1     # p(text -> null) in training, for CFG (Sketch2Anim Eq. 14)
     max_timesteps: int = 1000       # diffusion steps T_diff the time embedding is built for
     cond_layers: int = 1            # transformer layers in each condition encoder (supp. E: 1)
+    representation: str = "relative"  # features.REPRESENTATIONS: "relative" (HumanML3D-style,
+                                    # T = N - 1 rows of 137) | "absolute" (T = N rows of 70)
+    smooth_basis: int = 0           # K > 0: the output keeps its K lowest DCT frequencies over
+                                    # the T rows (low_pass_matrix); 0 = off. x0-prediction only
 
     def __post_init__(self):
+        check_representation(self.representation)
+        if (isinstance(self.smooth_basis, bool) or not isinstance(self.smooth_basis, int)
+                or not 0 <= self.smooth_basis <= self.n_frames):
+            raise ValueError(f"DenoiserConfig.smooth_basis must be an integer in 0..n_frames "
+                             f"({self.n_frames}), got {self.smooth_basis!r}")
         for name in ("feature_dim", "n_frames", "d_model", "n_heads", "n_layers", "ff",
                      "text_dim", "max_timesteps", "cond_layers"):
             v = getattr(self, name)
@@ -116,8 +139,17 @@ class DenoiserConfig:
 
     @property
     def n_joint_frames(self):
-        """N: joint frames of a window (= n_frames + 1)."""
-        return self.n_frames + 1
+        """N: joint frames of a window (``n_frames + 1`` rows for ``"relative"`` features,
+        ``n_frames`` for ``"absolute"``)."""
+        return self.n_frames - REPRESENTATIONS[self.representation][1]
+
+    @classmethod
+    def for_representation(cls, representation="relative", n_joint_frames=40, **kwargs):
+        """A config whose ``feature_dim`` and ``n_frames`` fit ``representation`` for windows
+        of ``n_joint_frames`` frames (other fields from ``kwargs``)."""
+        dim, extra = REPRESENTATIONS[check_representation(representation)]
+        return cls(feature_dim=dim, n_frames=n_joint_frames + extra,
+                   representation=representation, **kwargs)
 
     def to_dict(self):
         return dataclasses.asdict(self)
@@ -147,20 +179,31 @@ def _rotate_y_torch(v, angle):
     return torch.stack([c * x + s * z, y, -s * x + c * z], dim=-1)
 
 
-def features_to_joints_torch(features, include_last=True):
+def features_to_joints_torch(features, include_last=True, representation="relative"):
     """Differentiable :func:`~physlab.motion.features.features_to_joints` for a batch, from
     the canonical start (heading 0, pelvis at ``x = z = 0``). Sketch2Anim's ``R(.)``
     (Eq. (6)).
 
     Parameters
     ----------
-    features : (B, T, D) tensor of denormalised feature rows (D = 137).
-    include_last : bool, also return frame ``T`` from the last joint velocities.
+    features : (B, T, D) tensor of denormalised feature rows (D = 137; 70 for
+        ``representation="absolute"``, :func:`~physlab.motion.features.
+        absolute_features_to_joints`, whose T rows are T frames).
+    include_last : bool, also return frame ``T`` from the last joint velocities (relative
+        features only).
 
     Returns
     -------
-    (B, T + 1, 22, 3) tensor (``(B, T, 22, 3)`` without the last frame), metres.
+    (B, T + 1, 22, 3) tensor (``(B, T, 22, 3)`` without the last frame or for absolute
+    features), metres.
     """
+    if check_representation(representation) == "absolute":
+        if features.ndim != 3 or features.shape[-1] != ABS_FEATURE_DIM:
+            raise ValueError(f"features must have shape (B, T, {ABS_FEATURE_DIM}), got "
+                             f"{tuple(features.shape)}")
+        B, n, _ = features.shape
+        p = features[..., None, ABS_PELVIS]                                # (B, T, 1, 3)
+        return torch.cat([p, p + features[..., ABS_BODY].reshape(B, n, N_JOINTS - 1, 3)], 2)
     if features.ndim != 3 or features.shape[-1] != FEATURE_DIM:
         raise ValueError(f"features must have shape (B, T, {FEATURE_DIM}), got "
                          f"{tuple(features.shape)}")
@@ -187,6 +230,17 @@ def features_to_joints_torch(features, include_last=True):
 
 
 # ----------------------------------------------------------------------------- building blocks
+
+
+def low_pass_matrix(n, k):
+    """``(n, n)`` projection onto the ``k`` lowest-frequency DCT-II basis vectors of length
+    ``n``: ``P = C_kᵀ C_k`` with ``C`` the orthonormal DCT matrix. ``P @ x`` keeps a
+    sequence's slow part (for 40 frames at 20 fps, ``k = 16`` keeps frequencies below
+    4 Hz); ``P`` is symmetric and idempotent."""
+    i = torch.arange(n, dtype=torch.float64)
+    C = torch.cos(math.pi * (i[None] + 0.5) * i[:, None] / n) * math.sqrt(2.0 / n)   # (n, n)
+    C[0] /= math.sqrt(2.0)
+    return (C[:k].T @ C[:k]).to(torch.float32)
 
 
 def timestep_embedding(t, dim, max_period=10000):
@@ -324,6 +378,11 @@ class MotionDenoiser(nn.Module):
         self.encoder = DenoiserEncoder(cfg)
         self.ln_f = nn.LayerNorm(cfg.d_model)
         self.head = nn.Linear(cfg.d_model, cfg.feature_dim)
+        if cfg.smooth_basis:
+            self.register_buffer("low_pass", low_pass_matrix(cfg.n_frames, cfg.smooth_basis),
+                                 persistent=False)
+        else:
+            self.low_pass = None
 
     def forward(self, x_t, t, text_emb, drop_text=None, residuals=None):
         """Predicted noise.
@@ -345,7 +404,10 @@ class MotionDenoiser(nn.Module):
                              f"{len(residuals)}")
         h = self.encoder.tokens(x_t, t, text_emb, drop_text)               # (B, 1+T, C)
         h = self.encoder.run_blocks(h, residuals)[-1]                      # (B, 1+T, C)
-        return self.head(self.ln_f(h[:, 1:]))                              # (B, T, D)
+        out = self.head(self.ln_f(h[:, 1:]))                               # (B, T, D)
+        if self.low_pass is not None:                                      # K lowest frequencies
+            out = torch.einsum("st,btd->bsd", self.low_pass.to(out.dtype), out)
+        return out
 
 
 # ----------------------------------------------------------------------------- conditions
@@ -367,16 +429,19 @@ class FrameConditionEncoder(nn.Module):
         super().__init__()
         C = cfg.d_model
         self.in_dim = in_dim
+        self.pairs = cfg.n_frames < cfg.n_joint_frames      # relative rows: frames i and i+1
         self.inp = nn.Linear(in_dim, C)
         self.pos = nn.Parameter(torch.randn(1, cfg.n_joint_frames, C) * 0.02)
         self.blocks = nn.ModuleList([Block(C, cfg.n_heads, cfg.ff, cfg.dropout)
                                      for _ in range(cfg.cond_layers)])
-        self.out = nn.Linear(2 * C, C)
+        self.out = nn.Linear(2 * C if self.pairs else C, C)
 
     def forward(self, frames):                                             # (B, N, F)
         e = self.inp(frames) + self.pos                                    # (B, N, C)
         for block in self.blocks:
             e = block(e)
+        if not self.pairs:                                                 # absolute: row = frame
+            return self.out(e)                                             # (B, N, C)
         return self.out(torch.cat([e[:, :-1], e[:, 1:]], dim=-1))          # (B, N-1, C)
 
 
@@ -418,20 +483,23 @@ class KeyposeEncoder(nn.Module):
         return self.out(e.mean(dim=1) + self.frame(key_frame))             # (B, C)
 
 
-def unified_frames(trajectory, mask, keypose, key_frame):
+def unified_frames(trajectory, mask, keypose, key_frame, keypose_mask=None):
     """Single-ControlNet condition (Table 2): trajectory, mask, the keypose written into its
-    frame (``K_3D``, zeros elsewhere) and a one-hot key frame: ``(B, N, 24 + 66 + 1)``."""
+    frame (``K_3D``, zeros elsewhere) and a one-hot key frame: ``(B, N, 24 + 66 + 1)``
+    (keypose and one-hot zero for samples whose ``keypose_mask`` (B,) is False)."""
     N = mask.shape[1]
     onehot = F.one_hot(key_frame, N).to(trajectory.dtype)                  # (B, N)
+    if keypose_mask is not None:
+        onehot = onehot * keypose_mask.to(onehot.dtype)[:, None]
     dense = onehot[..., None] * keypose.flatten(1)[:, None]                # (B, N, 66)
     return torch.cat([trajectory_frames(trajectory, mask), dense, onehot[..., None]], dim=-1)
 
 
-def check_condition(cond, batch, n_frames):
+def check_condition(cond, batch, n_joint_frames):
     """Validate a condition dict (``trajectory`` (B, N, 6, 3), ``traj_mask`` (B, N, 6) bool,
-    ``keypose`` (B, 22, 3), ``key_frame`` (B,) int in 0..N-1); ValueError saying what is
-    wrong."""
-    N = n_frames + 1
+    ``keypose`` (B, 22, 3), ``key_frame`` (B,) int in 0..N-1, ``N = n_joint_frames``);
+    ValueError saying what is wrong."""
+    N = n_joint_frames
     need = {"trajectory": (batch, N, N_TRAJ, 3), "traj_mask": (batch, N, N_TRAJ),
             "keypose": (batch, N_JOINTS, 3), "key_frame": (batch,)}
     if not isinstance(cond, dict):
@@ -451,6 +519,11 @@ def check_condition(cond, batch, n_frames):
     for k in ("trajectory", "keypose"):
         if not torch.isfinite(cond[k]).all():
             raise ValueError(f"cond[{k!r}] contains NaN or inf")
+    km = cond.get("keypose_mask")
+    if km is not None and (tuple(km.shape) != (batch,) or km.dtype != torch.bool):
+        raise ValueError(f"cond['keypose_mask'] must be None or a ({batch},) bool tensor "
+                         f"(False: no keypose), got {getattr(km, 'dtype', None)} "
+                         f"{tuple(getattr(km, 'shape', ()))}")
     kf = cond["key_frame"]
     if kf.is_floating_point() or (kf.numel() and (int(kf.min()) < 0 or int(kf.max()) >= N)):
         raise ValueError(f"cond['key_frame'] must hold integer frame indices in 0..{N - 1}")
@@ -499,8 +572,11 @@ class KeyposeAdapter(nn.Module):
         self.zero = nn.ModuleList([_zero_linear(cfg.d_model, cfg.d_model)
                                    for _ in range(cfg.n_layers)])
 
-    def forward(self, x_t, t, text_emb, keypose, key_frame, residuals, drop_text=None):
+    def forward(self, x_t, t, text_emb, keypose, key_frame, residuals, drop_text=None,
+                keypose_mask=None):
         k = self.keypose_encoder(keypose, key_frame)                       # (B, C)  E_k(K)
+        if keypose_mask is not None:                                       # no keypose: a' = a
+            k = k * keypose_mask.to(k.dtype)[:, None]
         h = self.encoder.tokens(x_t, t, text_emb, drop_text, cond_extra=k)  # Eq. (2) a'
         outs = self.encoder.run_blocks(h, residuals)                        # Eq. (3)
         return [z(o) for z, o in zip(self.zero, outs)]
@@ -547,13 +623,14 @@ class ControlledDenoiser(nn.Module):
         action embeddings ``text_emb`` (B, text_dim) and a condition dict (see
         :func:`check_condition`)."""
         _check_inputs(x_t, t, text_emb, self.config, drop_text)
-        check_condition(cond, x_t.shape[0], self.config.n_frames)
+        check_condition(cond, x_t.shape[0], self.config.n_joint_frames)
         traj, mask = cond["trajectory"], cond["traj_mask"]
+        km = cond.get("keypose_mask")
         if self.single_controlnet:
-            frames = unified_frames(traj, mask, cond["keypose"], cond["key_frame"])
+            frames = unified_frames(traj, mask, cond["keypose"], cond["key_frame"], km)
             res = self.controlnet(x_t, t, text_emb, frames, drop_text)
         else:
             r = self.controlnet(x_t, t, text_emb, trajectory_frames(traj, mask), drop_text)
             res = self.adapter(x_t, t, text_emb, cond["keypose"], cond["key_frame"], r,
-                               drop_text)                                   # r'
+                               drop_text, keypose_mask=km)                  # r'
         return self.base(x_t, t, text_emb, drop_text, residuals=res)        # Eq. (4)

@@ -50,8 +50,9 @@ import torch
 
 from .dataset import TRAJECTORY_JOINT_NAMES, TRAJECTORY_JOINTS
 from .diffusion import classifier_free_guidance
-from .features import features_to_joints
-from .model import ControlledDenoiser, trajectory_frames
+from .body import clip_bone_lengths, constrain_body
+from .features import decode_motion
+from .model import ControlledDenoiser, features_to_joints_torch
 from .skeleton import JOINT_NAMES
 
 __all__ = ["DEFAULT_CHECKPOINT", "N_FRAMES", "Generator", "build_condition", "generate",
@@ -89,6 +90,38 @@ def _finite_array(x, name, shape=None):
     if not np.all(np.isfinite(a)):
         raise ValueError(f"{name} contains NaN or inf")
     return a
+
+
+#: Where the per-step inference guidance optimises (:meth:`Generator.__call__`).
+GUIDANCE_SPACES = ("x0", "network")
+#: How it optimises: L-BFGS (Sketch2Anim) or first-order Adam steps.
+GUIDANCE_OPTIMIZERS = ("lbfgs", "gradient")
+#: Adam learning rate of the first-order guidance per space: on x̂₀ in feature units (m),
+#: on ``z_t`` in noise units.
+FIRST_ORDER_LR = {"x0": 0.01, "network": 0.05}
+
+
+def _minimise(closure, params, iters, optimizer, lr=0.01):
+    """``iters`` L-BFGS iterations (strong Wolfe line search) or Adam steps of size ``lr`` on
+    ``closure`` (which zeroes the gradients, evaluates the loss and calls ``backward``)."""
+    if optimizer == "lbfgs":
+        opt = torch.optim.LBFGS(params, lr=1.0, max_iter=int(iters), history_size=10,
+                                line_search_fn="strong_wolfe")
+        opt.step(closure)
+        return
+    opt = torch.optim.Adam(params, lr=lr)
+    for _ in range(int(iters)):
+        closure()
+        opt.step()
+
+
+def _progress(items, show, desc):
+    """``items`` wrapped in a tqdm bar when ``show``."""
+    if not show:
+        return items
+    from tqdm.auto import tqdm
+
+    return tqdm(items, desc=desc, leave=False)
 
 
 def build_condition(keypose_3d=None, keypose_at="first", trajectories_3d=None,
@@ -219,28 +252,36 @@ class Generator:
 
     def _eps(self, x, t, a, drop, cond):
         """Network output (B, T, D) (x̂₀ / ε̂ / v̂, the scheduler's ``prediction_type``) of the
-        text model (cond None) or the controlled one."""
+        text model (cond None) or the controlled one (Eq. (4); a sample whose
+        ``cond["keypose_mask"]`` is False gets ``a' = a``, Eq. (2) with ``E_k(K) = 0``)."""
         if cond is None:
             return self.denoiser(x, t, a, drop)
-        m = self.model
-        if m.single_controlnet or cond["has_keypose"]:
-            return m(x, t, a, cond, drop)
-        # no keypose: a' = a (E_k(K) = 0) in the adapter, Eq. (2); ControlNet as usual
-        r = m.controlnet(x, t, a, trajectory_frames(cond["trajectory"], cond["traj_mask"]), drop)
-        h = m.adapter.encoder.tokens(x, t, a, drop)
-        res = [z(o) for z, o in zip(m.adapter.zero, m.adapter.encoder.run_blocks(h, r))]
-        return m.base(x, t, a, drop, residuals=res)                          # Eq. (4)
+        return self.model(x, t, a, cond, drop)
 
-    def _guide(self, out, x, t, cond, joints_target, iters, proximity):
+    def _predict(self, x, t, a, cond, w):
+        """The network output of one denoising step with classifier-free guidance on the
+        text, Eq. (14): ``out_u + w (out_c − out_u)``, both halves in one batch of 2."""
+        if w == 1.0:
+            return self._eps(x, t, a, torch.tensor([False]), cond)
+        cond2 = None if cond is None else {k: v.expand(2, *v.shape[1:]) for k, v in cond.items()}
+        out = self._eps(x.expand(2, -1, -1), t.expand(2), a.expand(2, -1),
+                        torch.tensor([True, False]), cond2)                 # (2, T, D)
+        return classifier_free_guidance(out[:1], out[1:], w)                # Eq. (14)
+
+    def _guide(self, out, x, t, cond, joints_target, iters, proximity, optimizer="lbfgs"):
         """Inference guidance (Sketch2Anim supp. C, Eq. (15); loss-guided diffusion): ``iters``
         L-BFGS iterations on the clean-motion estimate x̂₀ of this step, minimising
-        ``G(x) = L_tr(R(x)) + L_key(R(x)) + proximity · mean((x − x̂₀)²)`` (Eqs. (6), (8) on
-        the decoded joints, metres²; the last term keeps the motion near the network's), then
+        ``G(x) = L_tr(R(x)) + L_key(R(x)) + proximity · mean_j ‖R(x)_j − R(x̂₀)_j‖²`` (Eqs. (6),
+        (8) on the decoded joints, metres²; the last term, the mean squared displacement of the
+        joints, keeps the motion near the network's whatever the feature scaling), then
         the network output is rewritten for the corrected x̂₀ so the sampler's step uses it.
 
         The paper differentiates G through the network w.r.t. z_t and applies it only to its
         2D trajectories; physlab differentiates w.r.t. x̂₀ (no backpropagation through the
-        network: ~10x cheaper on a CPU) and guides the 3D trajectories and the keypose."""
+        network: ~10x cheaper on a CPU) and guides the 3D trajectories and the keypose;
+        :meth:`_guide_network` is the paper's form. ``optimizer="gradient"``: ``iters`` Adam
+        steps (lr :data:`FIRST_ORDER_LR`) instead of L-BFGS, the first-order variant of Table
+        A3."""
         from .guidance import control_losses
 
         sched = self.scheduler
@@ -248,27 +289,35 @@ class Generator:
         mean = torch.as_tensor(self.stats.mean, dtype=x0.dtype)
         std = torch.as_tensor(self.stats.std, dtype=x0.dtype)
         ref = x0.detach()
-        z = ref.clone().requires_grad_(True)
-        opt = torch.optim.LBFGS([z], lr=1.0, max_iter=int(iters), history_size=10,
-                                line_search_fn="strong_wolfe")
-        has_key = cond["has_keypose"]
+        # optimise the de-normalised features u (metres, radians): the losses are in metres,
+        # and in normalised units a column with a small std (e.g. the pelvis height) would
+        # need a huge step for a small gradient (L-BFGS converged 30x slower there)
+        u = (ref * std + mean).requires_grad_(True)
+        rep = self.config.representation
+
+        def decode(v):                                                       # (1, N, 22, 3) m
+            return features_to_joints_torch(v * std + mean, representation=rep)
+
+        ref_joints = decode(ref)
+        has_key = bool(cond["keypose_mask"].any())
 
         target_tr, target_key = joints_target
         has_traj = bool(cond["traj_mask"].any())
 
         def closure():
-            opt.zero_grad()
-            g = proximity * ((z - ref) ** 2).mean()
+            u.grad = None
+            z = (u - mean) / std
+            g = proximity * ((decode(z) - ref_joints) ** 2).sum(-1).mean()
             if has_traj:
-                g = g + control_losses(z, target_tr, cond, mean, std)[0]       # Eq. (6)
+                g = g + control_losses(z, target_tr, cond, mean, std, rep)[0]  # Eq. (6)
             if has_key:
-                g = g + control_losses(z, target_key, cond, mean, std)[1]      # Eq. (8)
+                g = g + control_losses(z, target_key, cond, mean, std, rep)[1]  # Eq. (8)
             g.backward()
             return g
 
         with torch.enable_grad():
-            opt.step(closure)
-        x0g = z.detach()
+            _minimise(closure, [u], iters, optimizer, FIRST_ORDER_LR["x0"])
+        x0g = ((u - mean) / std).detach()
         kind = sched.config.prediction_type
         if kind == "sample":
             return x0g
@@ -278,10 +327,44 @@ class Generator:
         a = sched.alphas_cumprod[t].to(x.dtype).reshape(-1, *([1] * (x.ndim - 1)))
         return a.sqrt() * eps - (1 - a).sqrt() * x0g                      # v
 
+    def _guide_network(self, x, t, a, cond, w, joints_target, iters, optimizer="lbfgs"):
+        """Sketch2Anim's inference guidance (supp. C, Eq. (15), in 3D): move the noisy sample
+        ``z_t`` itself so that the network's clean estimate ``x̂₀(z_t)`` meets the conditions,
+        ``z_t ← argmin G(x̂₀(z_t))`` by ``iters`` L-BFGS iterations (or Adam steps) with
+        gradients through the network, then predict again from the new ``z_t``. The network
+        re-plans the whole body around the targets (no joint is dragged alone), at the cost
+        of one forward and backward pass per iteration. Returns ``(z_t, network output)``."""
+        from .guidance import control_losses
+
+        mean = torch.as_tensor(self.stats.mean, dtype=x.dtype)
+        std = torch.as_tensor(self.stats.std, dtype=x.dtype)
+        rep = self.config.representation
+        target_tr, target_key = joints_target
+        has_traj = bool(cond["traj_mask"].any())
+        has_key = bool(cond["keypose_mask"].any())
+        z = x.detach().clone().requires_grad_(True)
+
+        def closure():
+            z.grad = None
+            x0, _ = self.scheduler.split_output(self._predict(z, t, a, cond, w), z, t)
+            g = z.new_zeros(())
+            if has_traj:
+                g = g + control_losses(x0, target_tr, cond, mean, std, rep)[0]   # Eq. (6)
+            if has_key:
+                g = g + control_losses(x0, target_key, cond, mean, std, rep)[1]  # Eq. (8)
+            g.backward()
+            return g
+
+        with torch.enable_grad():
+            _minimise(closure, [z], iters, optimizer, FIRST_ORDER_LR["network"])
+        z = z.detach()
+        return z, self._predict(z, t, a, cond, w)
+
     def __call__(self, action, keypose_3d=None, keypose_at="first", trajectories_3d=None,
                  seed=0, guidance_scale=7.5, steps=50, method="ddim", return_features=False,
                  progress=False, inference_guidance=0, guidance_final=40,
-                 guidance_proximity=0.01):
+                 guidance_proximity=0.01, body_constraints=True, guidance_space="x0",
+                 guidance_optimizer="lbfgs"):
         """Generate one 40-frame motion.
 
         Parameters
@@ -308,6 +391,16 @@ class Generator:
             20 final 0.042 / 0.031 m; 40 final 0.018 / 0.018 m. Default 40; set both to 0 for
             the ControlNet and adapter alone.
         guidance_proximity : float >= 0, weight of the stay-near-x̂₀ term of the guidance.
+        guidance_space : ``"x0"`` (optimise the clean estimate, :meth:`_guide`: cheap) or
+            ``"network"`` (optimise ``z_t`` through the network, :meth:`_guide_network`: the
+            paper's form) for the per-step ``inference_guidance``; the final post-optimisation
+            always works on x̂₀.
+        guidance_optimizer : ``"lbfgs"`` or ``"gradient"`` (Adam steps; Table A3's
+            first-order variant) for ``inference_guidance``.
+        body_constraints : bool, project the clip onto rigid bones and lift feet that sink
+            into the floor (:func:`~physlab.motion.body.constrain_body`; bone lengths from
+            the keypose when one is given, else the clip's median lengths). The features
+            returned with ``return_features`` are the network's, before this projection.
 
         Returns
         -------
@@ -344,6 +437,14 @@ class Generator:
                 and guidance_proximity >= 0):
             raise ValueError(f"guidance_proximity must be a finite number >= 0, got "
                              f"{guidance_proximity!r}")
+        if guidance_space not in GUIDANCE_SPACES:
+            raise ValueError(f"guidance_space must be one of {GUIDANCE_SPACES}, got "
+                             f"{guidance_space!r}")
+        if guidance_optimizer not in GUIDANCE_OPTIMIZERS:
+            raise ValueError(f"guidance_optimizer must be one of {GUIDANCE_OPTIMIZERS}, got "
+                             f"{guidance_optimizer!r}")
+        if not isinstance(body_constraints, (bool, np.bool_)):
+            raise TypeError(f"body_constraints must be True or False, got {body_constraints!r}")
         N = self.config.n_joint_frames
         c = build_condition(keypose_3d, keypose_at, trajectories_3d, n_frames=N)
         controlled = c["has_keypose"] or c["has_trajectory"]
@@ -361,13 +462,8 @@ class Generator:
                     "traj_mask": torch.tensor(c["traj_mask"])[None],
                     "keypose": torch.tensor(c["keypose"], dtype=torch.float32)[None],
                     "key_frame": torch.tensor([c["key_frame"]], dtype=torch.int64),
-                    "has_keypose": c["has_keypose"]}
-        w = float(guidance_scale)
-        guided = w != 1.0
+                    "keypose_mask": torch.tensor([c["has_keypose"]])}
         target = None
-        full = method == "ddpm" and int(steps) == self.scheduler.num_train_timesteps
-        last_t = int(self.scheduler.set_timesteps(                         # the sampler's last t
-            int(steps), spacing="trailing" if full else None)[-1])
         if cond is not None and (inference_guidance > 0 or guidance_final > 0):
             # the loss functions read targets from (1, N, 22, 3) joints: write the keypose
             # into its frame and the trajectory points into theirs (only these are read)
@@ -377,38 +473,45 @@ class Generator:
             key[c["key_frame"]] = c["keypose"]
             target = tuple(torch.tensor(v, dtype=torch.float32)[None] for v in (tr, key))
 
-        def model_fn(x, t, _):                                              # x (1, T, D)
-            if not guided:
-                out = self._eps(x, t, a, torch.tensor([False]), cond)
-            else:
-                cond2 = None if cond is None else {
-                    k: (v.expand(2, *v.shape[1:]) if torch.is_tensor(v) else v)
-                    for k, v in cond.items()}
-                eps = self._eps(x.expand(2, -1, -1), t.expand(2), a.expand(2, -1),
-                                torch.tensor([True, False]), cond2)         # (2, T, D)
-                out = classifier_free_guidance(eps[:1], eps[1:], w)         # Eq. (14)
-            if target is not None:
-                iters = guidance_final if int(t[0]) == last_t else inference_guidance
-                if iters > 0:
-                    out = self._guide(out, x, t, cond, target, iters,
-                                      float(guidance_proximity))
-            return out
-
+        # The sampling loop, written out (as diffusers pipelines do): start from noise x_T,
+        # then at every timestep ask the network for its output (with classifier-free
+        # guidance, Eq. (14)), optionally correct it by the inference guidance (supp. C),
+        # and let the scheduler take one DDIM / DDPM step to the next, less noisy level.
+        sched = self.scheduler
+        full = method == "ddpm" and int(steps) == sched.num_train_timesteps
+        timesteps = sched.set_timesteps(int(steps), spacing="trailing" if full else None)
         g = torch.Generator().manual_seed(int(seed))
-        shape = (1, self.config.n_frames, self.config.feature_dim)           # (1, 39, 137)
-        last = {}
-
-        def keep_x0(i, t, x_prev, x0_hat):
-            last["x0"] = x0_hat
-
-        self.scheduler.sample(model_fn, shape, steps=int(steps), method=method, generator=g,
-                              progress=progress, callback=keep_x0)
+        shape = (1, self.config.n_frames, self.config.feature_dim)           # (1, T, D)
+        x = torch.randn(shape, generator=g)                                  # x_T ~ N(0, I)
+        w = float(guidance_scale)
+        bar = _progress(timesteps.tolist(), progress, f"{method} sampling")
+        with torch.no_grad():
+            for i, t in enumerate(bar):
+                t_prev = int(timesteps[i + 1]) if i + 1 < len(timesteps) else -1
+                t_in = torch.tensor([t])
+                final = t_prev == -1
+                iters = guidance_final if final else inference_guidance
+                if target is not None and iters > 0 and not final and guidance_space == "network":
+                    x, out = self._guide_network(x, t_in, a, cond, w, target, iters,
+                                                 guidance_optimizer)        # Eq. (15)
+                else:
+                    out = self._predict(x, t_in, a, cond, w)                # x̂₀ / ε̂ / v̂
+                    if target is not None and iters > 0:
+                        out = self._guide(out, x, t_in, cond, target, iters,
+                                          float(guidance_proximity),
+                                          "lbfgs" if final else guidance_optimizer)
+                if method == "ddim":
+                    x, x0 = sched.ddim_step(out, t, t_prev, x)
+                else:
+                    x, x0 = sched.ddpm_step(out, t, x, generator=g, t_prev=t_prev)
         # The result is the clean estimate x̂₀ of the last step, not the sampler's x at the
         # first training level (ᾱ_0 < 1 in MLD's schedule): that x keeps ~70 % of the last
         # step's residual x_t − √ᾱ_t x̂₀ and so undoes most of a last-step guidance.
-        x0 = last["x0"]                                                      # (1, T, D)
         feats = self.stats.denormalize(x0[0].double().numpy())              # (39, 137)
-        joints = features_to_joints(feats)                                   # (40, 22, 3)
+        joints = decode_motion(feats, self.config.representation)           # (40, 22, 3)
+        if body_constraints and np.all(np.isfinite(joints)):
+            lengths = clip_bone_lengths(c["keypose"][None]) if c["has_keypose"] else None
+            joints = constrain_body(joints, lengths)
         if not np.all(np.isfinite(joints)):
             raise FloatingPointError(f"sampling with {self.path} produced NaN/inf joints; "
                                      f"the checkpoint may be diverged")

@@ -39,6 +39,24 @@ base trained 4000 steps: walks 0.093 m/frame², walks backwards 0.020; real Band
 (:func:`velocity_loss`), brings them to 0.038 and 0.009 with the same text adherence
 (walks +3.4 m, walks backwards −2.0 m, bows −0.1 m over the 2 s clip).
 
+**Representation** (``--representation``, default ``"absolute"`` for a new base): the first
+shipped models denoised HumanML3D-style ``"relative"`` rows (root velocities, root-relative
+joints; :mod:`~physlab.motion.features`), as Sketch2Anim does. Their ControlNet and adapter
+did react to the conditions — on held-out windows one denoising step of the control model
+halved L_tr of x̂₀ against the base (0.018 -> 0.009 m² at t = 50, 0.081 -> 0.044 m² at
+t = 900) — but sampled clips ended as far from the targets as text-only ones (0.43 m): the
+pelvis path is the cumulative sum of 39 predicted velocities, so small per-row errors add
+up to a drift that no single row can see, and the ~50-step sampler compounds them. In the
+``"absolute"`` rows (pelvis position + pelvis-relative joints per frame,
+:func:`~physlab.motion.features.joints_to_absolute_features`) a trajectory point at frame
+``i`` is a function of row ``i`` alone, which is what a per-frame ControlNet input can
+learn; Meng et al. 2025 ("Absolute Coordinates Make Motion Generation Easy") report the
+same for text- and control-conditioned diffusion. Both representations remain trainable.
+
+**Conditions in training** (``--drop-keypose``, ``--drop-trajectory``): 10 % of the
+control-stage samples have no keypose and 10 % no trajectory, so any subset of conditions
+is in-distribution at inference (``keypose_mask`` of the condition dict).
+
 Every flag is a field of :class:`TrainConfig` or :class:`~physlab.motion.model.DenoiserConfig`
 (``--d-model 128`` …), and :func:`train` takes the same names as keyword arguments.
 
@@ -76,7 +94,7 @@ from .dataset import (
     split_by_take,
 )
 from .diffusion import PREDICTION_TYPES, NoiseScheduler, SchedulerConfig
-from .features import FeatureStats, joints_to_features
+from .features import FeatureStats, encode_motion
 from .model import (
     ControlledDenoiser,
     DenoiserConfig,
@@ -114,6 +132,12 @@ SCHEDULERS = {
     "ddpm": {},
 }
 
+#: Representation of a new base stage (``--representation``); see the module docstring.
+DEFAULT_REPRESENTATION = "absolute"
+
+#: DCT frequencies kept in x̂₀ by a new absolute base (``--smooth-basis``; module docstring).
+DEFAULT_SMOOTH_BASIS = 16
+
 #: Model of ``--smoke`` runs: a few seconds on a CPU.
 SMOKE_MODEL = {"d_model": 32, "n_heads": 2, "n_layers": 2, "ff": 64, "dropout": 0.0}
 
@@ -140,6 +164,9 @@ class TrainConfig:
     lambda_vel: float = 1.0         # MDM's velocity loss on x̂₀ (module doc); 0 = off
     cond_drop_prob: float = -1.0    # p(text dropped) for CFG; < 0: the model config's value
     min_t_r: int = 5                # shortest trajectory (frames) of a random condition
+    drop_keypose: float = 0.1       # p(no keypose) in a control-stage condition (trajectories
+                                    # only), so any subset of conditions can be given
+    drop_trajectory: float = 0.1    # p(no trajectory) (keypose only); never both
     single_controlnet: bool = False  # Table 2 ablation: one ControlNet for both conditions
     scheduler: str = "mld"          # noise schedule, a key of SCHEDULERS
     prediction: str = "sample"      # network output: "sample" (x0, MDM; default) |
@@ -171,7 +198,7 @@ class TrainConfig:
                 raise ValueError(f"{name} must be >= 1, got {getattr(self, name)}")
         for name in ("lr", "min_lr", "weight_decay", "grad_clip", "lambda_tr", "lambda_key",
                      "lambda_vel", "warmup", "seed", "num_threads", "max_clips",
-                     "cond_drop_prob"):
+                     "cond_drop_prob", "drop_keypose", "drop_trajectory"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
                 raise ValueError(f"{name} must be a finite number, got {v!r}")
@@ -188,6 +215,10 @@ class TrainConfig:
         if not 0 <= self.num_threads <= 256:
             raise ValueError(f"num_threads must be in 0..256 (0 = automatic), got "
                              f"{self.num_threads}")
+        if not (0 <= self.drop_keypose and 0 <= self.drop_trajectory
+                and self.drop_keypose + self.drop_trajectory <= 1):
+            raise ValueError(f"drop_keypose and drop_trajectory must be >= 0 with a sum <= 1, "
+                             f"got {self.drop_keypose} and {self.drop_trajectory}")
         if not math.isfinite(self.cond_drop_prob) or self.cond_drop_prob > 1:
             raise ValueError(f"cond_drop_prob must be <= 1 (< 0: the model config's value), got "
                              f"{self.cond_drop_prob}")
@@ -217,15 +248,18 @@ def _text_cache(texts, cfg: TrainConfig):
     return cache
 
 
-def prepare_data(cfg: TrainConfig, stats: FeatureStats | None = None, cache=None):
+def prepare_data(cfg: TrainConfig, stats: FeatureStats | None = None, cache=None,
+                 representation="relative"):
     """Training windows as tensors.
 
-    Loads the training clips (:func:`split_by_take`, take 001), cuts 40-frame windows
-    (stride ``cfg.window_stride``), computes their features and normalises them.
+    Loads the training clips (:func:`split_by_take`: every take but 002), cuts 40-frame
+    windows (stride ``cfg.window_stride``), computes their features in ``representation``
+    (:data:`~physlab.motion.features.REPRESENTATIONS`) and normalises them.
 
     Returns
     -------
-    dict with ``x0`` (N, 39, 137) float32 normalised features, ``joints`` (N, 40, 22, 3)
+    dict with ``x0`` (N, 39, 137) (relative) or (N, 40, 70) (absolute) float32 normalised
+    features, ``joints`` (N, 40, 22, 3)
     float64 canonical windows, ``text_index`` (N,) int64 into ``text_emb`` (V, 384) float32,
     ``texts`` (list of V str), ``stats`` (:class:`FeatureStats`, computed here unless given),
     ``cache`` (:class:`~physlab.motion.text.EmbeddingCache`), ``train_takes`` (sorted list of
@@ -239,9 +273,10 @@ def prepare_data(cfg: TrainConfig, stats: FeatureStats | None = None, cache=None
     clips = load_clips(root, clip_ids=ids)
     train_clips, _ = split_by_take(clips) if ids is None else (clips, None)
     win = make_windows(train_clips, length=40, stride=cfg.window_stride)
-    feats = np.stack([joints_to_features(w, fps=win.fps) for w in win.joints])  # (N, 39, 137)
+    feats = np.stack([encode_motion(w, representation, fps=win.fps)
+                      for w in win.joints])                       # (N, 39, 137) | (N, 40, 70)
     if stats is None:
-        stats = FeatureStats.from_features(feats)
+        stats = FeatureStats.from_features(feats, representation=representation)
     texts = sorted(set(win.text))
     if cache is None:
         cache = _text_cache(texts, cfg)
@@ -255,18 +290,22 @@ def prepare_data(cfg: TrainConfig, stats: FeatureStats | None = None, cache=None
             "train_takes": sorted({c.take for c in train_clips})}
 
 
-def condition_batch(windows, rng, min_t_r=5):
+def condition_batch(windows, rng, min_t_r=5, drop_keypose=0.0, drop_trajectory=0.0):
     """Random Sketch2Anim training conditions (:func:`random_condition`) of a batch.
 
     Parameters
     ----------
     windows : (B, 40, 22, 3) float array of canonical windows.
     rng : numpy Generator.
+    min_t_r : shortest trajectory (frames).
+    drop_keypose, drop_trajectory : probabilities that a sample has no keypose (its
+        ``keypose_mask`` is False) or no trajectory (its ``traj_mask`` is all False); the two
+        events exclude each other, so every sample keeps a condition.
 
     Returns
     -------
     dict of tensors: ``trajectory`` (B, 40, 6, 3) float32, ``traj_mask`` (B, 40, 6) bool,
-    ``keypose`` (B, 22, 3) float32, ``key_frame`` (B,) int64.
+    ``keypose`` (B, 22, 3) float32, ``key_frame`` (B,) int64, ``keypose_mask`` (B,) bool.
     """
     w = np.asarray(windows, dtype=float)
     if w.ndim != 4 or w.shape[2:] != (len(JOINT_NAMES), 3):
@@ -274,10 +313,17 @@ def condition_batch(windows, rng, min_t_r=5):
     if not np.all(np.isfinite(w)):
         raise ValueError("windows contain NaN or inf")
     cs = [random_condition(x, rng, min_t_r=min_t_r) for x in w]
-    return {"trajectory": torch.tensor(np.stack([c.trajectory for c in cs]), dtype=torch.float32),
-            "traj_mask": torch.tensor(np.stack([c.mask for c in cs])),
-            "keypose": torch.tensor(np.stack([c.keypose for c in cs]), dtype=torch.float32),
-            "key_frame": torch.tensor([c.key_frame for c in cs], dtype=torch.int64)}
+    u = rng.random(len(cs))
+    has_key = u >= drop_keypose                                             # (B,)
+    has_traj = (u < drop_keypose) | (u >= drop_keypose + drop_trajectory)  # never both dropped
+    traj = np.stack([c.trajectory for c in cs]) * has_traj[:, None, None, None]
+    mask = np.stack([c.mask for c in cs]) & has_traj[:, None, None]
+    key = np.stack([c.keypose for c in cs]) * has_key[:, None, None]
+    return {"trajectory": torch.tensor(traj, dtype=torch.float32),
+            "traj_mask": torch.tensor(mask),
+            "keypose": torch.tensor(key, dtype=torch.float32),
+            "key_frame": torch.tensor([c.key_frame for c in cs], dtype=torch.int64),
+            "keypose_mask": torch.tensor(has_key)}
 
 
 def velocity_loss(x0_hat, x0):
@@ -391,13 +437,21 @@ def train(**kwargs):
             print(f"note: model options {sorted(user_mk)} ignored; the model config comes from "
                   f"{out if resume else cfg.base_ckpt}", file=sys.stderr)
     else:
-        model_cfg = DenoiserConfig(**mk)
+        rep = mk.pop("representation", DEFAULT_REPRESENTATION)
+        dims = DenoiserConfig.for_representation(rep)
+        mk = {"feature_dim": dims.feature_dim, "n_frames": dims.n_frames, **mk}
+        mk.setdefault("smooth_basis", DEFAULT_SMOOTH_BASIS if rep == "absolute" else 0)
+        model_cfg = DenoiserConfig(representation=rep, **mk)
+        if model_cfg.smooth_basis and cfg.prediction != "sample":
+            raise ValueError(f"--smooth-basis {model_cfg.smooth_basis} needs --prediction sample "
+                             f"(it low-passes x̂₀; a noise prediction must keep every "
+                             f"frequency); use --smooth-basis 0")
         stats, cache = None, None
         sched = NoiseScheduler(SchedulerConfig(**SCHEDULERS[cfg.scheduler],
                                                prediction_type=cfg.prediction))
     if cfg.text_encoder == "hash" and cache is not None:
         cache.encoder = hash_encoder
-    data = prepare_data(cfg, stats=stats, cache=cache)
+    data = prepare_data(cfg, stats=stats, cache=cache, representation=model_cfg.representation)
     stats, cache = data["stats"], data["cache"]
     if model_cfg.n_frames != data["x0"].shape[1]:
         raise ValueError(f"model n_frames={model_cfg.n_frames} but windows have "
@@ -479,11 +533,13 @@ def train(**kwargs):
                     loss = loss + cfg.lambda_vel * l_vel
                     parts = {"vel": l_vel.item()}
             else:
-                cond = condition_batch(joints_np[idx.numpy()], rng, cfg.min_t_r)
+                cond = condition_batch(joints_np[idx.numpy()], rng, cfg.min_t_r,
+                                       cfg.drop_keypose, cfg.drop_trajectory)
                 out_ = net(x_t, t, a, cond, drop)
                 l_rec = F.mse_loss(out_, target)                                 # Eq. (5)
                 x0_hat, _ = sched.split_output(out_, x_t, t)                     # Eq. (7)
-                l_tr, l_key = control_losses(x0_hat, joints_all[idx], cond, mean, std)
+                l_tr, l_key = control_losses(x0_hat, joints_all[idx], cond, mean, std,
+                                             model_cfg.representation)
                 loss = l_rec + cfg.lambda_tr * l_tr + cfg.lambda_key * l_key     # Eq. (9)
                 parts = {"rec": l_rec.item(), "tr": l_tr.item(), "key": l_key.item()}
                 if cfg.lambda_vel > 0:

@@ -43,7 +43,10 @@ def ckpts(real_data, tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def rows(ckpts):
-    return evaluate(ckpts["control"], single_controlnet=ckpts["single"], **FAST)
+    # the smoke models' raw joints: the rigid-bone / floor projection of a barely trained
+    # model's garbage would move the controlled joints (tested in test_body / the shipped model)
+    return evaluate(ckpts["control"], single_controlnet=ckpts["single"], body_constraints=False,
+                    **FAST)
 
 
 def test_all_rows_with_finite_numbers(rows):
@@ -82,7 +85,8 @@ def test_guidance_rows_land_closer_to_the_conditions(rows):
 
 
 def test_evaluation_is_deterministic(ckpts, rows):
-    again = evaluate(ckpts["control"], single_controlnet=ckpts["single"], **FAST)
+    again = evaluate(ckpts["control"], single_controlnet=ckpts["single"], body_constraints=False,
+                     **FAST)
     for name in ROW_NAMES:
         for k in COLUMNS:
             if k != "seconds_per_clip":

@@ -274,3 +274,47 @@ def test_real_turn_left_heading_reference(bandai):
     turn = next(c for c in bandai if c.content == "walk-turn-left")
     f = joints_to_features(turn.joints)
     assert np.degrees(f[:, 0].sum()) == pytest.approx(102.43, abs=0.05)
+
+
+# ----------------------------------------------------------------------------- absolute
+
+
+def test_absolute_features_round_trip_and_layout():
+    x = synthetic_motion(T=40)
+    f = F.joints_to_absolute_features(x)
+    assert f.shape == (40, F.ABS_FEATURE_DIM) == (40, 70)
+    np.testing.assert_array_equal(f[:, F.ABS_PELVIS], x[:, 0])
+    np.testing.assert_allclose(f[:, F.ABS_BODY].reshape(40, 21, 3), x[:, 1:] - x[:, :1])
+    np.testing.assert_allclose(F.absolute_features_to_joints(f), x, atol=1e-12)
+    # contacts: the relative rows' contacts, the last frame repeating the one before
+    c = F.foot_contacts(x)
+    np.testing.assert_array_equal(f[:-1, F.ABS_CONTACTS], c)
+    np.testing.assert_array_equal(f[-1, F.ABS_CONTACTS], c[-1])
+    # a joint at frame i depends on row i only (the point of the representation)
+    g = f.copy()
+    g[7] += 1.0
+    d = np.abs(F.absolute_features_to_joints(g) - x).max(axis=(1, 2))
+    assert d[7] > 0.5 and np.all(np.delete(d, 7) < 1e-12)
+
+
+def test_encode_decode_dispatch_and_stats():
+    c = canonicalize(synthetic_motion(T=40))
+    for rep, shape in (("relative", (39, 137)), ("absolute", (40, 70))):
+        f = F.encode_motion(c, rep)
+        assert f.shape == shape and F.REPRESENTATIONS[rep] == (shape[1], shape[0] - 40)
+        np.testing.assert_allclose(F.decode_motion(f, rep), c, atol=1e-12)
+    f = np.stack([F.encode_motion(canonicalize(synthetic_motion(seed=s)), "absolute")
+                  for s in range(4)])
+    st = F.FeatureStats.from_features(f, representation="absolute")
+    assert st.mean.shape == (70,) and np.all(st.std >= F.ABS_STD_FLOORS["body"])
+    np.testing.assert_allclose(st.denormalize(st.normalize(f)), f, atol=1e-12)
+    with pytest.raises(ValueError, match="representation must be one of"):
+        F.encode_motion(c, "global")
+    with pytest.raises(ValueError, match=r"shape \(\.\.\., 70\)"):
+        F.FeatureStats.from_features(np.zeros((5, 137)), representation="absolute")
+    with pytest.raises(ValueError, match="unknown feature groups"):
+        F.FeatureStats.from_features(f, floors={"ric": 1.0}, representation="absolute")
+    with pytest.raises(ValueError, match=r"shape \(T, 70\)"):
+        F.absolute_features_to_joints(np.zeros((3, 69)))
+    with pytest.raises(ValueError, match="NaN"):
+        F.absolute_features_to_joints(np.full((3, 70), np.nan))

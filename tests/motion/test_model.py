@@ -194,3 +194,66 @@ def test_torch_decoding_inverts_features_of_a_motion_and_has_gradients():
     assert f.grad.abs().sum() > 0 and torch.isfinite(f.grad).all()
     with pytest.raises(ValueError, match="137"):
         features_to_joints_torch(torch.zeros(1, 39, 136))
+
+
+def test_torch_decoding_of_absolute_features_matches_numpy():
+    from physlab.motion.features import absolute_features_to_joints
+
+    f = np.random.default_rng(1).normal(scale=0.3, size=(2, 40, 70))
+    out = features_to_joints_torch(torch.tensor(f), representation="absolute").numpy()
+    np.testing.assert_allclose(out, np.stack([absolute_features_to_joints(a) for a in f]),
+                               atol=1e-12)
+    with pytest.raises(ValueError, match=r"shape \(B, T, 70\)"):
+        features_to_joints_torch(torch.zeros(1, 40, 137), representation="absolute")
+
+
+def test_absolute_config_frame_encoder_and_keypose_mask():
+    from physlab.motion.model import (ControlledDenoiser, DenoiserConfig, MotionDenoiser)
+
+    cfg = DenoiserConfig.for_representation("absolute", d_model=32, n_heads=2, n_layers=2,
+                                            ff=64, dropout=0.0)
+    assert (cfg.feature_dim, cfg.n_frames, cfg.n_joint_frames) == (70, 40, 40)
+    assert DenoiserConfig().n_joint_frames == 40                            # relative: 39 rows
+    torch.manual_seed(0)
+    m = ControlledDenoiser(MotionDenoiser(cfg))
+    for p in list(m.controlnet.zero.parameters()) + list(m.adapter.zero.parameters()):
+        torch.nn.init.normal_(p, std=0.1)                                   # "trained" outputs
+    B = 2
+    x, t, a = torch.randn(B, 40, 70), torch.tensor([5, 500]), torch.randn(B, 384)
+    cond = {"trajectory": torch.randn(B, 40, 6, 3), "traj_mask": torch.ones(B, 40, 6, dtype=torch.bool),
+            "keypose": torch.randn(B, 22, 3), "key_frame": torch.tensor([0, 39])}
+    m.eval()
+    with torch.no_grad():
+        full = m(x, t, a, cond)
+        off = m(x, t, a, {**cond, "keypose_mask": torch.tensor([False, True])})
+        other = m(x, t, a, {**cond, "keypose": torch.randn(B, 22, 3),
+                            "keypose_mask": torch.tensor([False, True])})
+    assert full.shape == (B, 40, 70)
+    assert torch.equal(off[1], full[1]) and not torch.allclose(off[0], full[0])
+    assert torch.equal(other[0], off[0])            # a masked keypose has no effect at all
+    with pytest.raises(ValueError, match="keypose_mask"):
+        m(x, t, a, {**cond, "keypose_mask": torch.tensor([1, 0])})
+
+
+def test_low_pass_matrix_is_the_dct_projection_and_smooths_the_output():
+    from scipy.fft import dct, idct
+
+    from physlab.motion.model import DenoiserConfig, MotionDenoiser, low_pass_matrix
+
+    P = low_pass_matrix(40, 16).double()
+    x = np.random.default_rng(0).normal(size=(40, 5))
+    c = dct(x, axis=0, norm="ortho")
+    c[16:] = 0
+    np.testing.assert_allclose(P.numpy() @ x, idct(c, axis=0, norm="ortho"), atol=1e-6)
+    assert torch.allclose(P @ P, P, atol=1e-6) and torch.allclose(P, P.T)
+    cfg = DenoiserConfig.for_representation("absolute", d_model=32, n_heads=2, n_layers=1,
+                                            ff=64, smooth_basis=8)
+    torch.manual_seed(0)
+    m = MotionDenoiser(cfg).eval()
+    with torch.no_grad():
+        out = m(torch.randn(2, 40, 70), torch.tensor([3, 900]), torch.randn(2, 384))
+    assert np.abs(dct(out.numpy(), axis=1, norm="ortho"))[:, 8:].max() < 1e-5  # k >= 8: none
+    assert "low_pass" not in m.state_dict()                       # a fixed, rebuilt buffer
+    for bad in (-1, 41, 2.5, True):
+        with pytest.raises(ValueError, match="smooth_basis must be an integer"):
+            DenoiserConfig.for_representation("absolute", smooth_basis=bad)

@@ -247,3 +247,28 @@ def test_ddp_two_ranks_end_with_identical_parameters(real_data, tmp_path):
     d = ckpt["param_digests"]
     assert len(d) == 2 and d[0] == d[1]
     assert len(ckpt["rng"]) == 2
+
+
+def test_condition_batch_drops_keypose_or_trajectory_never_both():
+    import numpy as np
+
+    from physlab.motion.train import condition_batch
+
+    rng = np.random.default_rng(0)
+    w = np.cumsum(rng.normal(0, 0.01, (400, 40, 22, 3)), axis=1)
+    c = condition_batch(w, np.random.default_rng(1), drop_keypose=0.3, drop_trajectory=0.2)
+    key = c["keypose_mask"].numpy()
+    traj = c["traj_mask"].numpy().any(axis=(1, 2))
+    assert np.all(key | traj)                                       # never both dropped
+    assert abs((~key).mean() - 0.3) < 0.07 and abs((~traj).mean() - 0.2) < 0.07
+    assert np.all(c["keypose"].numpy()[~key] == 0) and np.all(c["trajectory"].numpy()[~traj] == 0)
+    c0 = condition_batch(w[:50], np.random.default_rng(1))
+    assert c0["keypose_mask"].all() and c0["traj_mask"].numpy().any(axis=(1, 2)).all()
+
+
+def test_smooth_basis_needs_x0_prediction(tmp_path):
+    from physlab.motion.train import train
+
+    with pytest.raises(ValueError, match="--smooth-basis 8 needs --prediction sample"):
+        train(stage="base", smoke=True, progress=False, out=str(tmp_path / "b.pt"),
+              representation="absolute", smooth_basis=8, prediction="epsilon")
