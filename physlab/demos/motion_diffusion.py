@@ -832,7 +832,10 @@ def control_comparison(windows=6, seed=0, steps=50, guidance_scale=7.5, checkpoi
       last x̂₀ against the decoded keypose / trajectory losses, Eqs. (6), (8);
       :data:`~physlab.motion.evaluate.GUIDED`).
 
-    ``body_constraints`` is passed to the generator (rigid bones, feet above the floor).
+    ``guidance_scale`` is the text scale of the text-only clips; the controlled ones use the
+    generator's default under control (:data:`~physlab.motion.sampling.
+    CONTROL_TEXT_GUIDANCE`). ``body_constraints`` is passed to the generator (rigid bones,
+    feet above the floor).
 
     Returns
     -------
@@ -867,7 +870,8 @@ def control_comparison(windows=6, seed=0, steps=50, guidance_scale=7.5, checkpoi
             xs, tic = [], time.perf_counter()
             for i, c in enumerate(conds):
                 kw = {} if opts is None else {**condition_kwargs(c), **opts}
-                xs.append(gen(data["text"][i], seed=seed + i, guidance_scale=w,
+                xs.append(gen(data["text"][i], seed=seed + i,
+                              guidance_scale=w if opts is None else None,   # control: w = 1
                               steps=int(steps), body_constraints=body_constraints, **kw))
             out[key] = np.stack(xs)
             rows[CONTROL_ROWS[key][0]] = clip_metrics(

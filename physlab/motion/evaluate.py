@@ -279,7 +279,8 @@ def _sample(gen, data, conds, controlled, steps, guidance, seed, progress, label
 
 
 def evaluate(control, single_controlnet=None, windows=64, steps=50, guidance=7.5, seed=0,
-             out=None, progress=True, data_root=None, body_constraints=True):
+             out=None, progress=True, data_root=None, body_constraints=True,
+             control_guidance=1.0):
     """Evaluate a control checkpoint on held-out Bandai-Namco windows (module docstring).
 
     Keyword names match the CLI flags.
@@ -290,7 +291,10 @@ def evaluate(control, single_controlnet=None, windows=64, steps=50, guidance=7.5
         control``).
     single_controlnet : None or path of a ``--single-controlnet`` control checkpoint.
     windows : int >= 1, held-out windows evaluated.
-    steps : int >= 1, DDIM steps; guidance : float >= 0, CFG scale w (Eq. (14)).
+    steps : int >= 1, DDIM steps; guidance : float >= 0, text CFG scale w (Eq. (14)) of the
+    text-only row; control_guidance : float >= 0, the text scale of the controlled rows
+    (the generator's default under control, :data:`~physlab.motion.sampling.
+    CONTROL_TEXT_GUIDANCE`).
     seed : int, seeds the conditions (``rng``) and the samples (``seed + i``).
     out : None or a folder: writes ``table.md`` and ``rows.json`` there (atomically).
     progress : bool, tqdm bars.
@@ -319,15 +323,21 @@ def evaluate(control, single_controlnet=None, windows=64, steps=50, guidance=7.5
     conds = eval_conditions(data["joints"], seed=seed)
     if not isinstance(body_constraints, (bool, np.bool_)):
         raise TypeError(f"body_constraints must be True or False, got {body_constraints!r}")
-    kw = {"steps": int(steps), "guidance": float(guidance), "seed": int(seed), "progress": progress,
+    if (isinstance(control_guidance, bool) or not isinstance(control_guidance, (int, float))
+            or not math.isfinite(control_guidance) or control_guidance < 0):
+        raise ValueError(f"control_guidance must be a finite number >= 0, got "
+                         f"{control_guidance!r}")
+    kw = {"steps": int(steps), "seed": int(seed), "progress": progress,
           "body_constraints": bool(body_constraints)}
     rows = {"real clips": clip_metrics(data["joints"], conds)}
-    x, s = _sample(gens["keypose + trajectory"], data, conds, False, label="text only", **kw)
+    x, s = _sample(gens["keypose + trajectory"], data, conds, False, label="text only",
+                   guidance=float(guidance), **kw)
     rows["text only"] = clip_metrics(x, conds, s)
     for name, gen in gens.items():
         for guided in (False, True):
             label = name + (" + guidance" if guided else "")
-            x, s = _sample(gen, data, conds, True, label=label, guided=guided, **kw)
+            x, s = _sample(gen, data, conds, True, label=label, guided=guided,
+                           guidance=float(control_guidance), **kw)
             rows[label] = clip_metrics(x, conds, s)
 
     if out is not None:
@@ -335,7 +345,8 @@ def evaluate(control, single_controlnet=None, windows=64, steps=50, guidance=7.5
         config = {"control": str(control), "single_controlnet": None if single_controlnet
                   is None else str(single_controlnet), "windows": len(conds),
                   "windows_available": data["n_available"], "steps": int(steps),
-                  "guidance": float(guidance), "seed": int(seed), "min_t_r": MIN_T_R,
+                  "guidance": float(guidance), "control_guidance": float(control_guidance),
+                  "seed": int(seed), "min_t_r": MIN_T_R,
                   "test_takes": list(TEST_TAKES), "body_constraints": bool(body_constraints)}
         atomic_write_text(out / "table.md", format_table(rows) + "\n")
         atomic_write_text(out / "rows.json", json.dumps(
@@ -479,7 +490,10 @@ def _parser():
                    help="optional single-ControlNet control checkpoint (Table 2 ablation)")
     p.add_argument("--windows", type=int, default=64, help="held-out windows (default 64)")
     p.add_argument("--steps", type=int, default=50, help="DDIM steps (default 50)")
-    p.add_argument("--guidance", type=float, default=7.5, help="CFG scale (default 7.5)")
+    p.add_argument("--guidance", type=float, default=7.5,
+                   help="text CFG scale of the text-only row (default 7.5)")
+    p.add_argument("--control-guidance", type=float, default=1.0,
+                   help="text CFG scale of the controlled rows (default 1)")
     p.add_argument("--seed", type=int, default=0, help="conditions and sampling seed")
     p.add_argument("--out", type=Path, default=None, help="folder for table.md and rows.json")
     p.add_argument("--data-root", default=None, help="Bandai-Namco folder (labels.csv)")
@@ -500,6 +514,7 @@ def main(argv=None):
     try:
         rows = evaluate(args.control, single_controlnet=args.single_controlnet,
                         windows=args.windows, steps=args.steps, guidance=args.guidance,
+                        control_guidance=args.control_guidance,
                         seed=args.seed, out=args.out, progress=not args.no_progress,
                         data_root=args.data_root,
                         body_constraints=not args.no_body_constraints)

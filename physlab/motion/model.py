@@ -529,6 +529,11 @@ def check_condition(cond, batch, n_joint_frames):
         raise ValueError(f"cond['key_frame'] must hold integer frame indices in 0..{N - 1}")
 
 
+#: Std (times 1/sqrt(C)) of the initial weights of the ControlNet's output layers Z_i in
+#: the ControlNet + adapter model (:class:`ControlledDenoiser`; the adapter's Z'_i stay zero).
+CONTROLNET_INIT_STD = 0.1
+
+
 class TrajectoryControlNet(nn.Module):
     """``r = F_tr(z_t + E_tr(T), t, a)`` (Eq. (1)): a trainable copy of the base encoder
     plus one zero-initialised linear layer ``Z_i`` per block.
@@ -611,6 +616,16 @@ class ControlledDenoiser(nn.Module):
         else:
             self.controlnet = TrajectoryControlNet(base, traj_encoder)
             self.adapter = KeyposeAdapter(base, keypose_encoder)
+            # The ControlNet's residuals reach the output only through the adapter's zero
+            # layers Z'. With the ControlNet's own Z_i zero too, the gradient of each factor
+            # is proportional to the other (both 0 at the start), so the trajectory branch
+            # only starts learning once Z' has grown. Small random Z_i keep the controlled
+            # model equal to the base at initialisation (Z' = 0) and let both learn at once.
+            g = torch.Generator().manual_seed(0)
+            with torch.no_grad():
+                for z in self.controlnet.zero:
+                    z.weight.normal_(0.0, CONTROLNET_INIT_STD / math.sqrt(z.in_features),
+                                     generator=g)
         self.base.eval()
 
     def train(self, mode=True):
