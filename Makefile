@@ -85,10 +85,10 @@ MOTION_RUNS  ?= runs/motion
 MOTION_TRAIN := $(PY) -m physlab.motion.train --num-threads 2 --text-cache $(MOTION_RUNS)/text_cache.npz
 motion-model: $(STAMP)
 	mkdir -p $(MOTION_RUNS) data/motion
-	$(MOTION_TRAIN) --stage base --steps 4000 --out $(MOTION_RUNS)/base.pt
-	$(MOTION_TRAIN) --stage control --steps 3000 --base-ckpt $(MOTION_RUNS)/base.pt \
+	$(MOTION_TRAIN) --stage base --steps 5000 --out $(MOTION_RUNS)/base.pt
+	$(MOTION_TRAIN) --stage control --steps 2000 --base-ckpt $(MOTION_RUNS)/base.pt \
 		--out $(MOTION_RUNS)/control.pt --export data/motion/sketch2anim_control.pt
-	$(MOTION_TRAIN) --stage control --single-controlnet --steps 3000 \
+	$(MOTION_TRAIN) --stage control --single-controlnet --steps 1500 \
 		--base-ckpt $(MOTION_RUNS)/base.pt --out $(MOTION_RUNS)/single_controlnet.pt \
 		--export data/motion/sketch2anim_single_controlnet.pt
 

@@ -52,7 +52,7 @@ HumanML3D evaluator), which physlab does not have; they are left out.
 Usage::
 
     python -m physlab.motion.evaluate --control runs/control.pt \\
-        [--single-controlnet runs/single.pt] [--windows 64] [--steps 50] [--guidance 7.5] \\
+        [--single-controlnet runs/single.pt] [--windows 64] [--steps 50] [--guidance 2.5] [--control-guidance 1] \\
         [--seed 0] [--out runs/eval] [--no-progress]
 
     from physlab.motion.evaluate import evaluate
@@ -238,7 +238,7 @@ def _check_windows(windows):
     return int(windows)
 
 
-def _load(path, flag):
+def _load(path, flag, need_control=True):
     from .sampling import Generator
 
     if path is None or not Path(path).is_file():
@@ -249,6 +249,8 @@ def _load(path, flag):
             + (" --single-controlnet" if flag == "--single-controlnet" else "")
             + " (add --smoke for a seconds-long test model)")
     gen = Generator.from_checkpoint(path)
+    if not need_control:
+        return gen
     if not gen.has_control:
         raise ValueError(f"{flag} {path} is a '{gen.stage}' (text-only) checkpoint; give a "
                          f"control checkpoint (`python -m physlab.motion.train --stage control "
@@ -278,7 +280,7 @@ def _sample(gen, data, conds, controlled, steps, guidance, seed, progress, label
     return np.stack(out), total / len(conds)
 
 
-def evaluate(control, single_controlnet=None, windows=64, steps=50, guidance=7.5, seed=0,
+def evaluate(control, single_controlnet=None, windows=64, steps=50, guidance=2.5, seed=0,
              out=None, progress=True, data_root=None, body_constraints=True,
              control_guidance=1.0):
     """Evaluate a control checkpoint on held-out Bandai-Namco windows (module docstring).
@@ -403,7 +405,7 @@ def motion_statistics(joints, fps=20.0):
     return np.stack([d[:, 2], d[:, 0], path / duration, hand], axis=1)
 
 
-def text_adherence(control, contents=ADHERENCE_CONTENTS, seeds=4, steps=50, guidance=7.5,
+def text_adherence(control, contents=ADHERENCE_CONTENTS, seeds=4, steps=50, guidance=2.5,
                    progress=True, data_root=None):
     """Does the text-only generator do what the action word says? (A stand-in for the
     paper's R-precision, which needs a trained motion-text evaluator that physlab lacks.)
@@ -431,7 +433,7 @@ def text_adherence(control, contents=ADHERENCE_CONTENTS, seeds=4, steps=50, guid
                          f"unknown: {unknown}")
     if isinstance(seeds, bool) or not isinstance(seeds, (int, np.integer)) or seeds < 1:
         raise ValueError(f"seeds must be an integer >= 1, got {seeds!r}")
-    gen = _load(control, "--control")
+    gen = _load(control, "--control", need_control=False)        # text only: a base will do
     win = make_windows(load_clips(data_root), length=WINDOW_LENGTH, stride=WINDOW_STRIDE)
     real_stats = motion_statistics(win.joints, fps=win.fps)               # (M, 4)
     labels = np.asarray(win.content)
@@ -490,8 +492,8 @@ def _parser():
                    help="optional single-ControlNet control checkpoint (Table 2 ablation)")
     p.add_argument("--windows", type=int, default=64, help="held-out windows (default 64)")
     p.add_argument("--steps", type=int, default=50, help="DDIM steps (default 50)")
-    p.add_argument("--guidance", type=float, default=7.5,
-                   help="text CFG scale of the text-only row (default 7.5)")
+    p.add_argument("--guidance", type=float, default=2.5,
+                   help="text CFG scale of the text-only row (default 2.5, the generator's)")
     p.add_argument("--control-guidance", type=float, default=1.0,
                    help="text CFG scale of the controlled rows (default 1)")
     p.add_argument("--seed", type=int, default=0, help="conditions and sampling seed")
