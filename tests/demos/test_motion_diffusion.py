@@ -186,8 +186,9 @@ def test_guidance_sweep_ignores_the_text_at_w0(ckpt, tmp_path):
 
 
 def test_action_speeds_match_root_speed(ckpt):
-    sp = demo.action_speeds(("a person walks",), seeds=(0,), steps=4, checkpoint=ckpt)
-    x = demo.generator(ckpt)("a person walks", seed=0, steps=4)
+    sp = demo.action_speeds(("a person walks",), seeds=(0,), steps=4, guidance_scale=7.5,
+                            checkpoint=ckpt)
+    x = demo.generator(ckpt)("a person walks", seed=0, steps=4, guidance_scale=7.5)
     assert np.isclose(sp["a person walks"], demo.root_speed(x).mean())
 
 
