@@ -10,7 +10,7 @@ import argparse
 import functools
 import sys
 
-__all__ = ["Parser", "run", "guard"]
+__all__ = ["Parser", "run", "guard", "run_subcommand"]
 
 
 class Parser(argparse.ArgumentParser):
@@ -33,6 +33,13 @@ class Parser(argparse.ArgumentParser):
     def error(self, message):
         self.exit(2, f"{self.root_prog}: error: {message} (see {self.prog} --help)\n")
 
+    def rename(self, prog):
+        """Show this parser as the subcommand ``prog`` (e.g. ``"physlab train motion"``): usage,
+        help and the epilog's ``%(prog)s`` examples name it, and usage errors start with the
+        command's name (``physlab: error: ...``). Returns the parser."""
+        self.prog, self.root_prog = prog, prog.split()[0]
+        return self
+
 
 def run(prog, func, debug=False):
     """Call ``func()``; on an exception print ``prog: error: ...`` (one line) and return 2,
@@ -54,6 +61,18 @@ def run(prog, func, debug=False):
               file=sys.stderr)
         return 2
     return 0 if out is None else out
+
+
+def run_subcommand(prog, parser, main, argv):
+    """Run a module's command line ``main(argv)`` as the subcommand ``prog`` of a bigger
+    command, e.g. ``physlab train motion`` for ``python -m physlab.motion.train``.
+
+    ``parser`` is that module's own parser (``_parser()``, prog ``python -m ...``): renamed by
+    :meth:`Parser.rename`, it parses ``argv`` first, so ``--help`` and usage errors name
+    ``prog`` and exit here (0, or 2 with one line); ``main`` then parses the same, valid
+    arguments again and does the work. Returns ``main``'s result."""
+    parser.rename(prog).parse_args(argv)
+    return main(argv)
 
 
 def guard(prog, main, argv=None):

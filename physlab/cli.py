@@ -153,13 +153,16 @@ def _parser():
                        epilog="example:\n  physlab train motion --stage base --steps 4000 "
                               "--out runs/base.pt\n(all flags: physlab train motion --help)")
     t.add_argument("what", choices=("motion",))
-    t.add_argument("args", nargs=argparse.REMAINDER, help="flags of python -m physlab.motion.train")
+    t.add_argument("args", nargs=argparse.REMAINDER,
+                   help="flags of the training (all of them: physlab train motion --help)")
     e = sub.add_parser("evaluate", help="physlab evaluate inbetween|motion ...",
                        epilog="examples:\n  physlab evaluate inbetween --pairs 2 --size 256\n"
                               "  physlab evaluate motion --control data/motion/"
-                              "sketch2anim_control.pt --windows 16")
+                              "sketch2anim_control.pt --windows 16\n(all flags: physlab "
+                              "evaluate inbetween --help, physlab evaluate motion --help)")
     e.add_argument("what", choices=("inbetween", "motion"))
-    e.add_argument("args", nargs=argparse.REMAINDER, help="flags of the evaluation")
+    e.add_argument("args", nargs=argparse.REMAINDER,
+                   help="flags of the evaluation (physlab evaluate WHAT --help)")
     return parser
 
 
@@ -184,7 +187,9 @@ def main(argv=None):
     from physlab._cli import run
 
     args = _parser().parse_args(argv)
-    return run("physlab", lambda: _dispatch(args), debug=args.debug)
+    # `physlab train motion ... --debug`: the flag is among the passed-through arguments
+    debug = args.debug or "--debug" in getattr(args, "args", ())
+    return run("physlab", lambda: _dispatch(args), debug=debug)
 
 
 def _dispatch(args):
@@ -215,16 +220,18 @@ def _dispatch(args):
         _inbetween(args)
     elif args.cmd == "generate":
         _generate(args)
-    elif args.cmd == "train":
-        from physlab.motion.train import main as train_main
+    elif args.cmd in ("train", "evaluate"):
+        # `physlab train motion ...` is `python -m physlab.motion.train ...` under the physlab
+        # name (its help, examples and errors say `physlab train motion`); likewise evaluate
+        from physlab._cli import run_subcommand
 
-        train_main(args.args)
-    elif args.cmd == "evaluate":
-        if args.what == "motion":
-            from physlab.motion.evaluate import main as evaluate_main
+        if args.cmd == "train":
+            from physlab.motion.train import _parser as parser, main
+        elif args.what == "motion":
+            from physlab.motion.evaluate import _parser as parser, main
         else:
-            from physlab.inbetween.evaluate import main as evaluate_main
-        evaluate_main(args.args)
+            from physlab.inbetween.evaluate import _parser as parser, main
+        run_subcommand(f"physlab {args.cmd} {args.what}", parser(), main, args.args)
     else:
         for p in lesson_paths():
             print(p.name)

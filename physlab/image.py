@@ -22,6 +22,36 @@ __all__ = ["as_float", "over_white", "to_uint8", "read_image"]
 _SCALE = {np.dtype(np.uint8): 1 / 255, np.dtype(np.uint16): 1 / 65535}
 
 
+def _check_shape(shape, name, min_size=1):
+    """ValueError naming ``name`` unless ``shape`` is (H, W) or (H, W, 1|3|4), H, W >= min_size."""
+    if len(shape) not in (2, 3) or (len(shape) == 3 and shape[2] not in (1, 3, 4)):
+        raise ValueError(f"{name} must be an image of shape (H, W), (H, W, 3) or (H, W, 4), got "
+                         f"{shape}")
+    if min(shape[:2]) < max(1, min_size):
+        raise ValueError(f"{name} is empty or too small: shape {shape}, need H, W >= "
+                         f"{max(1, min_size)}")
+
+
+def _unit(a, name, dtype, clip=False):
+    """Values of ``a`` (any shape) as ``dtype`` floats in [0, 1], read by dtype (module doc).
+
+    ``clip``: floats outside [0, 1] are clipped instead of rejected (NaN / inf never are)."""
+    if a.dtype in _SCALE:
+        return a.astype(dtype) * np.dtype(dtype).type(_SCALE[a.dtype])
+    if a.dtype == bool:
+        return a.astype(dtype)
+    if np.issubdtype(a.dtype, np.floating):
+        f = a.astype(dtype)
+        if not np.isfinite(f).all():
+            raise ValueError(f"{name} contains NaN or inf")
+        if not clip and (f.min() < -1e-6 or f.max() > 1 + 1e-6):
+            raise ValueError(f"{name} floats must lie in [0, 1], got range [{f.min():g}, "
+                             f"{f.max():g}] (scale 0..255 data by 1/255, or pass uint8)")
+        return np.clip(f, 0.0, 1.0)
+    raise ValueError(f"{name} must be uint8, uint16, bool or float in [0, 1], got dtype "
+                     f"{a.dtype}")
+
+
 def as_float(image, name="image", channels=None, dtype=np.float32, min_size=1):
     """``image`` as a float array in [0, 1].
 
@@ -44,27 +74,8 @@ def as_float(image, name="image", channels=None, dtype=np.float32, min_size=1):
     dtype, NaN/inf, floats outside [0, 1].
     """
     a = np.asarray(image)
-    if a.ndim not in (2, 3) or (a.ndim == 3 and a.shape[2] not in (1, 3, 4)):
-        raise ValueError(f"{name} must be an image of shape (H, W), (H, W, 3) or (H, W, 4), got "
-                         f"{a.shape}")
-    if min(a.shape[:2]) < max(1, min_size):
-        raise ValueError(f"{name} is empty or too small: shape {a.shape}, need H, W >= "
-                         f"{max(1, min_size)}")
-    if a.dtype in _SCALE:
-        f = a.astype(dtype) * dtype(_SCALE[a.dtype])
-    elif a.dtype == bool:
-        f = a.astype(dtype)
-    elif np.issubdtype(a.dtype, np.floating):
-        f = a.astype(dtype)
-        if not np.isfinite(f).all():
-            raise ValueError(f"{name} contains NaN or inf")
-        if f.min() < -1e-6 or f.max() > 1 + 1e-6:
-            raise ValueError(f"{name} floats must lie in [0, 1], got range [{f.min():g}, "
-                             f"{f.max():g}] (scale 0..255 data by 1/255, or pass uint8)")
-        f = np.clip(f, 0.0, 1.0)
-    else:
-        raise ValueError(f"{name} must be uint8, uint16, bool or float in [0, 1], got dtype "
-                         f"{a.dtype}")
+    _check_shape(a.shape, name, min_size)
+    f = _unit(a, name, dtype)
     if channels is None:
         return f
     if channels not in (3, 4):
@@ -92,12 +103,29 @@ def over_white(img):
     return a[..., :3] * alpha + (1.0 - alpha)
 
 
-def to_uint8(image, name="image"):
-    """``image`` (any dtype :func:`as_float` accepts) as uint8, rounding to nearest."""
+def to_uint8(image, name="image", clip=False):
+    """``image`` as uint8, rounding to nearest: ``floor(x·255 + 0.5)`` of its [0, 1] value.
+
+    Parameters
+    ----------
+    image : (H, W) or (H, W, 1|3|4) image, or a stack (T, H, W, 1|3|4) of them, of a dtype
+        :func:`as_float` accepts. uint8 is returned as is (no copy); uint16 becomes
+        ``round(x / 257)``; bool 0 / 255; a float is scaled in its own precision (float32
+        stays float32, as ``(x * 255 + 0.5).astype(np.uint8)`` does).
+    name : str, names the argument in error messages.
+    clip : bool, clip floats outside [0, 1] (a renderer's overshoot) instead of rejecting
+        them; NaN / inf are always rejected.
+
+    Returns
+    -------
+    uint8 array of the same shape.
+    """
     a = np.asarray(image)
     if a.dtype == np.uint8:
         return a
-    return (as_float(a, name, dtype=np.float64) * 255 + 0.5).astype(np.uint8)
+    _check_shape(a.shape[1:] if a.ndim == 4 else a.shape, name)
+    dtype = a.dtype if np.issubdtype(a.dtype, np.floating) else np.float64
+    return (_unit(a, name, dtype, clip) * 255 + 0.5).astype(np.uint8)
 
 
 def read_image(path, name="image"):

@@ -57,6 +57,7 @@ from typing import Protocol, Sequence, runtime_checkable
 import numpy as np
 
 from physlab._io import atomic_write
+from physlab.image import as_float, over_white, to_uint8
 
 __all__ = [
     "warp_texture", "composite", "render_bodies", "edge_map",
@@ -71,8 +72,6 @@ _LUMA = np.array([0.2125, 0.7154, 0.0721], np.float32)  # Rec. 709, as skimage.c
 def _as_float_image(image, name="image"):
     """(H, W) / (H, W, 1|3|4) uint8, uint16 or float in [0, 1] -> float32 (H, W, 4) straight
     RGBA (:func:`physlab.image.as_float`)."""
-    from physlab.image import as_float
-
     return as_float(image, name, channels=4)
 
 
@@ -296,16 +295,15 @@ def _background_canvas(background, size):
             raise ValueError(f"background colour must lie in [0, 1], got {background!r} "
                              "(divide 0..255 values by 255)")
         return np.broadcast_to(b[:3].astype(np.float32), (H, W, 3)).copy()
-    img = _as_float_image(b, "background")
+    img = as_float(b, "background", channels=3)
     if img.shape[:2] != (H, W):
         raise ValueError(f"background image is {img.shape[:2]} but the frame is {(H, W)}")
-    a = img[..., 3:4]
-    return img[..., :3] * a + (1.0 - a)  # over white
+    return over_white(img)
 
 
 def _finish(rgb, dtype):
     if np.dtype(dtype) == np.uint8:
-        return (np.clip(rgb, 0, 1) * 255 + 0.5).astype(np.uint8)
+        return to_uint8(rgb, clip=True)
     if np.issubdtype(np.dtype(dtype), np.floating):
         return np.clip(rgb, 0, 1).astype(dtype, copy=False)
     raise ValueError(f"dtype must be np.uint8 or a float dtype, got {dtype!r}")
@@ -600,30 +598,23 @@ def _check_fps(fps):
 
 
 def _frames_uint8(frames):
-    """Frames as ``(T, H, W, 3|4)`` uint8: uint8 as is, bool as 0/255, uint16 by its value
-    range (x / 257), float clipped to [0, 1]; ``(T, H, W)`` grey gets three channels.
-    ValueError naming what is wrong (shape, dtype, NaN/inf)."""
+    """Frames as ``(T, H, W, 3|4)`` uint8 by :func:`physlab.image.to_uint8`: uint8 as is, bool
+    as 0/255, uint16 by its value range (round(x / 257)), float clipped to [0, 1];
+    ``(T, H, W)`` grey gets three channels. ValueError naming what is wrong (shape, dtype,
+    NaN/inf and the first frame holding one)."""
     f = np.asarray(frames)
     if f.ndim == 3:  # (T, H, W) grey
         f = np.repeat(f[..., None], 3, axis=3)
     if f.ndim != 4 or f.shape[3] not in (3, 4) or 0 in f.shape:
         raise ValueError(f"frames must have shape (T, H, W, 3|4) with T, H, W >= 1, got "
                          f"{f.shape}")
-    if f.dtype == np.uint8:
-        return f
-    if f.dtype == bool:
-        return f.astype(np.uint8) * 255
-    if f.dtype == np.uint16:
-        return ((f.astype(np.uint32) + 128) // 257).astype(np.uint8)
-    if not np.issubdtype(f.dtype, np.floating):
-        raise ValueError(f"frames must be uint8, uint16, bool or float in [0, 1], got dtype "
-                         f"{f.dtype}")
-    bad = ~np.isfinite(f)
-    if bad.any():
-        t = int(np.argwhere(bad)[0][0])
-        raise ValueError(f"frames hold {int(bad.sum())} NaN/inf values (first in frame {t}); "
-                         f"fix the renderer's output before writing a video")
-    return (np.clip(f, 0, 1) * 255 + 0.5).astype(np.uint8)
+    if np.issubdtype(f.dtype, np.floating):
+        bad = ~np.isfinite(f)
+        if bad.any():
+            t = int(np.argwhere(bad)[0][0])
+            raise ValueError(f"frames hold {int(bad.sum())} NaN/inf values (first in frame "
+                             f"{t}); fix the renderer's output before writing a video")
+    return to_uint8(f, "frames", clip=True)
 
 
 def frames_to_gif(frames, path, fps=20):

@@ -1,5 +1,7 @@
 """Each `physlab` subcommand runs headless on tiny input (the library does the work; these
-check the wiring, the files written and the one-line errors)."""
+check the wiring, the files written, the help examples and the one-line errors)."""
+import contextlib
+import io
 import json
 
 import numpy as np
@@ -26,10 +28,116 @@ def test_help_lists_every_subcommand(capsys):
     assert "examples:" in out
 
 
-@pytest.mark.parametrize("cmd", ["animate", "inbetween", "generate", "train", "evaluate"])
+@pytest.mark.parametrize("cmd", ["animate", "inbetween", "generate", "train", "evaluate",
+                                 "reproduce", "execute", "lessons"])
 def test_each_subcommand_help_shows_an_example(cmd, capsys):
     status, out, _ = _run([cmd, "--help"], capsys)
     assert status == 0 and "example" in out and f"physlab {cmd}" in out
+
+
+SECOND_LEVEL = {("train", "motion"): "physlab.motion.train",
+                ("evaluate", "inbetween"): "physlab.inbetween.evaluate",
+                ("evaluate", "motion"): "physlab.motion.evaluate"}
+
+
+@pytest.mark.parametrize("cmd", list(SECOND_LEVEL), ids=" ".join)
+def test_second_level_help_names_physlab_and_shows_an_example(cmd, capsys):
+    """`physlab train motion --help` is the module's help under the physlab name, examples
+    included; `python -m <module> --help` keeps its own name (its parser is built afresh)."""
+    import importlib
+
+    status, out, _ = _run([*cmd, "--help"], capsys)
+    prog = "physlab " + " ".join(cmd)
+    assert status == 0 and out.startswith(f"usage: {prog} ")
+    assert "example" in out and f"\n  {prog} --" in out, out[-600:]
+    own = importlib.import_module(SECOND_LEVEL[cmd])._parser().format_help()
+    assert own.startswith(f"usage: python -m {SECOND_LEVEL[cmd]} ") and prog not in own
+    assert f"\n  python -m {SECOND_LEVEL[cmd]} --" in own
+
+
+# ----------------------------------------------------------------- each command, headless
+def test_lessons_lists_the_notebooks_in_order(capsys):
+    status, out, err = _run(["lessons"], capsys)
+    names = out.split()
+    assert status == 0, err
+    assert names[0].startswith("00_") and names == sorted(names) and len(names) >= 2
+    assert all(n.endswith(".ipynb") for n in names)
+
+
+def test_execute_runs_a_notebook_in_place(tmp_path, capsys):
+    import nbformat
+
+    nb = nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell("print(6 * 7)")])
+    path = tmp_path / "tiny.ipynb"
+    nbformat.write(nb, path)
+    status, out, err = _run(["execute", str(path), "--timeout", "60"], capsys)
+    assert status == 0, err
+    assert "executed in" in out and [p.name for p in tmp_path.iterdir()] == ["tiny.ipynb"]
+    cell = nbformat.read(path, as_version=4).cells[0]
+    assert cell.outputs[0]["text"] == "42\n"
+
+
+def test_animate_writes_a_gif_with_one_frame_per_tick(tmp_path, capsys):
+    import imageio.v3 as iio
+
+    out = tmp_path / "ball.gif"
+    status, text, err = _run(["animate", "--drawing", "ball", "--duration", "0.5", "--fps", "4",
+                              "--out", str(out)], capsys)
+    assert status == 0, err
+    frames = iio.imread(out, index=None)
+    assert frames.shape[0] == 3 == 0.5 * 4 + 1                       # t = 0, 0.25, 0.5 s
+    assert frames.shape[1:3] == (256, 256) and "wrote 3 frames" in text
+    assert frames[0].std() > 0 and not np.array_equal(frames[0], frames[-1])   # it moves
+
+
+def test_evaluate_inbetween_on_one_small_pair(tmp_path, capsys):
+    out = tmp_path / "eval"
+    status, text, err = _run(["evaluate", "inbetween", "--pairs", "1", "--size", "64",
+                              "--frames", "3", "--no-progress", "--out", str(out)], capsys)
+    assert status == 0, err
+    rows = json.loads((out / "rows.json").read_text())
+    assert {r["method"] for r in rows} >= {"cross_dissolve", "physlab"}
+    assert len({r["pair"] for r in rows}) == 1
+    assert all(np.isfinite(r["psnr_mid"]) for r in rows)
+    assert (out / "table.md").is_file() and "physlab" in text
+
+
+#: `physlab train motion` smoke settings: a few seconds per stage on one thread.
+SMOKE = ["--smoke", "--steps", "2", "--num-threads", "1", "--no-progress"]
+
+
+@pytest.fixture(scope="module")
+def smoke_run(real_data, tmp_path_factory):
+    """`physlab train motion --smoke` of both stages: exit codes, printed text, checkpoints."""
+    d = tmp_path_factory.mktemp("cli_train")
+    text, status = io.StringIO(), []
+    with contextlib.redirect_stdout(text):
+        status.append(cli.main(["train", "motion", "--stage", "base", *SMOKE,
+                                "--out", str(d / "base.pt")]))
+        status.append(cli.main(["train", "motion", "--stage", "control", "--base-ckpt",
+                                str(d / "base.pt"), *SMOKE, "--out", str(d / "control.pt")]))
+    return {"status": status, "text": text.getvalue(), "base": d / "base.pt",
+            "control": d / "control.pt"}
+
+
+def test_train_motion_smoke_writes_both_stages(smoke_run):
+    assert smoke_run["status"] == [0, 0]
+    assert "stage base: step 2" in smoke_run["text"]
+    assert "stage control: step 2" in smoke_run["text"]
+    assert smoke_run["base"].is_file() and smoke_run["control"].is_file()
+
+
+def test_evaluate_motion_on_a_smoke_checkpoint(smoke_run, tmp_path, capsys):
+    out = tmp_path / "eval"
+    status, text, err = _run(["evaluate", "motion", "--control", str(smoke_run["control"]),
+                              "--windows", "1", "--steps", "1", "--no-progress",
+                              "--no-body-constraints", "--out", str(out)], capsys)
+    assert status == 0, err
+    assert "| keypose + trajectory |" in text
+    saved = json.loads((out / "rows.json").read_text())
+    assert saved["config"]["windows"] == 1
+    assert all(r["n_clips"] == 1 for r in saved["rows"].values())
+    assert (out / "table.md").read_text().startswith("| method |")
 
 
 def test_inbetween_writes_frames(tmp_path, capsys):
@@ -87,9 +195,28 @@ def test_generate_writes_a_clip(tmp_path, suffix, capsys):
     (["generate", "", "--out", "x.bvh"], "action must be a non-empty text"),
     (["train", "motion", "--steps", "-5", "--out", "m.pt"], "steps must be >= 1"),
     (["evaluate", "motion", "--control", "none.pt", "--windows", "1"], "none.pt"),
+    # a bad argument of each subcommand: one `physlab: error:` line, exit code 2
+    (["lessons", "01"], "unrecognized arguments: 01"),
+    (["execute", "missing.ipynb"], "no notebook at missing.ipynb"),
+    (["reproduce", "--lessons", "99"], "no lesson matches ['99']"),
+    (["animate", "--fps", "0", "--out", "a.gif"], "--fps must be in 1..120, got 0"),
+    (["animate", "--out", "a.png"], "cannot write .png"),
+    (["animate", "--duration", "soon"], "argument --duration: invalid float value"),
+    (["inbetween", "k0.png", "k1.png", "--skeleton0", "s.json", "--skeleton1", "s.json",
+      "--frames", "x", "--out", "o"], "argument --frames: invalid int value"),
+    (["generate", "a person walks", "--steps", "many", "--out", "x.bvh"],
+     "argument --steps: invalid int value"),
+    (["train", "motion", "--steps", "x"], "invalid int value: 'x' (see physlab train motion"),
+    (["train", "dog"], "argument what: invalid choice: 'dog'"),
+    (["evaluate", "inbetween", "--size", "big"],
+     "invalid int value: 'big' (see physlab evaluate inbetween --help)"),
+    (["evaluate", "motion", "--windows", "x", "--control", "c.pt"],
+     "invalid int value: 'x' (see physlab evaluate motion --help)"),
+    (["evaluate", "motion"], "required: --control"),
 ])
 def test_subcommand_errors_are_one_line(args, match, tmp_path, capsys, monkeypatch):
     monkeypatch.chdir(tmp_path)
-    status, _, err = _run(args, capsys)
+    status, out, err = _run(args, capsys)
     lines = err.strip().splitlines()
     assert status == 2 and len(lines) == 1 and match in lines[0], err
+    assert lines[0].startswith("physlab: error: ") and out == ""

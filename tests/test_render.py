@@ -319,6 +319,63 @@ def test_frames_to_html():
     assert "<img" in g.data and "image/gif;base64," in g.data
 
 
+def test_16_bit_frames_are_converted_by_range_like_image_to_uint8():
+    """Every uint16 value v becomes round(v / 257) (never wrapped), as physlab.image.to_uint8
+    converts it; fixed references at the rounding boundaries (v = 257 k ± 128.5)."""
+    from physlab.image import to_uint8
+
+    v = np.arange(65536, dtype=np.uint16).reshape(-1, 16, 16, 1).repeat(3, 3)  # (256, 16, 16, 3)
+    u = render._frames_uint8(v)
+    assert u.dtype == np.uint8 and u.shape == v.shape
+    np.testing.assert_array_equal(u, np.round(v / 257).astype(np.uint8))
+    np.testing.assert_array_equal(u, to_uint8(v))
+    ref = np.array([0, 128, 129, 32767, 32768, 65406, 65407, 65535], np.uint16)
+    got = render._frames_uint8(np.broadcast_to(ref[None, :, None, None], (1, 8, 1, 3)))
+    assert got[0, :, 0, 0].tolist() == [0, 0, 1, 127, 128, 254, 255, 255]
+
+
+def test_float_frames_round_in_their_own_precision_and_clip():
+    """float32 frames: (x·255 + 0.5) in float32 (so the writers' output is unchanged at the
+    k + 1/2 boundaries), overshoot clipped; uint8 frames are passed through, not copied."""
+    k = np.arange(256)
+    x = ((k + 0.5) / 255).astype(np.float32)
+    x = np.concatenate([x, np.nextafter(x, np.float32(2)), np.nextafter(x, np.float32(-1)),
+                        np.float32([-0.3, 1.2, 1.0 + 1e-6])])               # 771 = 257 × 3
+    f = x.reshape(1, -1, 1, 3)
+    u = render._frames_uint8(f)
+    np.testing.assert_array_equal(u, (np.clip(f, 0, 1) * np.float32(255) + np.float32(0.5))
+                                  .astype(np.uint8))
+    assert u.ravel()[-3:].tolist() == [0, 255, 255]
+    f8 = _frames()
+    assert render._frames_uint8(f8) is f8
+
+
+def test_16_bit_frames_write_the_same_gif_as_8_bit(tmp_path):
+    import imageio.v3 as iio
+
+    f8 = _frames()
+    f16 = f8.astype(np.uint16) * 257 + np.uint16(100)       # +100 < 128.5: rounds back to f8
+    a = iio.imread(render.frames_to_gif(f8, tmp_path / "a8.gif", fps=10), index=None)
+    b = iio.imread(render.frames_to_gif(f16, tmp_path / "a16.gif", fps=10), index=None)
+    np.testing.assert_array_equal(a, b)
+
+
+def test_composite_over_a_16_bit_rgba_background_equals_8_bit():
+    """An RGBA background is flattened over white by physlab.image.over_white whatever its
+    bit depth: 16-bit (x·257) and 8-bit give the same canvas; a fixed reference pixel."""
+    bg8 = np.zeros((4, 5, 4), np.uint8)
+    bg8[..., 0] = 255
+    bg8[..., 3] = np.array([0, 51, 102, 255, 255], np.uint8)   # alpha 0, 0.2, 0.4, 1, 1
+    bg16 = bg8.astype(np.uint16) * 257
+    c8 = render.composite([], background=bg8)
+    c16 = render.composite([], background=bg16)
+    np.testing.assert_allclose(c16, c8, atol=1e-6)
+    np.testing.assert_allclose(c8[0, 1], [1.0, 0.8, 0.8], atol=1e-6)    # red at 20 % over white
+    np.testing.assert_array_equal(render.composite([], background=bg16, dtype=np.uint8)[0],
+                                  [[255, 255, 255], [255, 204, 204], [255, 153, 153],
+                                   [255, 0, 0], [255, 0, 0]])
+
+
 def test_rasterisation_is_watertight_under_jitter():
     """Jittered interior vertices, fixed boundary: every pixel centre of the square is covered
     exactly once (no cracks along shared edges, no double coverage)."""

@@ -306,7 +306,11 @@ def _parser():
         prog="python -m physlab.inbetween.evaluate",
         description="Ground-truth inbetweening benchmark (procedural cartoon characters): "
                     "cross-dissolve, flow interpolation, physlab (diagonal blend), physlab "
-                    "(blending optimisation); PSNR, SSIM, Chamfer ×1e5.")
+                    "(blending optimisation); PSNR, SSIM, Chamfer ×1e5.",
+        epilog="examples:\n"
+               "  %(prog)s --pairs 2 --size 256 --frames 5\n"
+               "  %(prog)s --out runs/inbetween_eval\n"
+               "  %(prog)s --real --skip-benchmark --out runs/real    # needs ../shared/data")
     p.add_argument("--size", type=int, default=512, help="image size in px (default 512)")
     p.add_argument("--frames", type=int, default=11,
                    help="frames per pair including both keys (default 11 = 9 in-betweens)")

@@ -589,8 +589,12 @@ def train(**kwargs):
 def _parser():
     from physlab._cli import Parser
 
-    p = Parser(prog="python -m physlab.motion.train",
-                                description=__doc__.split("\n\n")[0])
+    p = Parser(prog="python -m physlab.motion.train", description=__doc__.split("\n\n")[0],
+               epilog="examples:\n"
+                      "  %(prog)s --stage base --steps 4000 --out runs/base.pt\n"
+                      "  %(prog)s --stage control --base-ckpt runs/base.pt --steps 4000 "
+                      "--out runs/control.pt\n"
+                      "  %(prog)s --stage base --smoke --out /tmp/smoke.pt    # seconds")
     for cls in (TrainConfig, DenoiserConfig):
         group = p.add_argument_group(cls.__name__)
         for f in dataclasses.fields(cls):
