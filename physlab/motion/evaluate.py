@@ -30,7 +30,13 @@ Rows of the table:
 Columns (:mod:`physlab.motion.metrics`):
 
 * foot-skating ratio (GMD), mean over clips;
-* keypose MPJPE-3D (m) at the key frame, mean over clips (Sketch2Anim "MPJPE-3D");
+* keypose MPJPE-3D (m) at the key frame, mean over clips (Sketch2Anim "MPJPE-3D"), in two
+  forms: ``placed`` compares absolute positions (so it includes where the clip put the pose on
+  the floor), ``pose`` first moves the keypose horizontally under the clip's pelvis
+  (:func:`~physlab.motion.metrics.mpjpe` with ``root_relative="xz"``). A Sketch2Anim keypose
+  "does not provide global positional information" (Sec. 3); for a last-frame keypose its
+  placement comes only from the trajectories, so ``pose`` is the error of the pose the user
+  drew and ``placed`` adds the trajectory error at that frame;
 * trajectory error (m): mean distance over all controlled (frame, joint) points of all
   clips, OmniControl's ``sum / mask.sum()`` ("Avg. Err.-3D");
 * AUJ and PJ (supp. D, Tab. A4, FlowMDM's definitions): the jerk curve averaged over the
@@ -100,6 +106,7 @@ from .metrics import (
 __all__ = [
     "COLUMNS",
     "MIN_T_R",
+    "GUIDANCE_VARIANTS",
     "ROW_NAMES",
     "clip_metrics",
     "eval_conditions",
@@ -120,10 +127,22 @@ ROW_NAMES = ("real clips", "text only", "keypose + trajectory",
 #: network-only rows.
 GUIDED = {"inference_guidance": 0, "guidance_final": 40}
 UNGUIDED = {"inference_guidance": 0, "guidance_final": 0}
+#: Per-step inference guidance variants (Table A3's analogue, ``--guidance-variants``): K = 4
+#: iterations per denoising step through the network (``guidance_space="network"``, the
+#: paper's form of Eqs. (15)-(16) in 3D), first-order (Adam steps) or L-BFGS, no final
+#: post-optimisation.
+GUIDANCE_VARIANTS = {
+    "+ first-order guidance per step": {"inference_guidance": 4, "guidance_final": 0,
+                                        "guidance_space": "network",
+                                        "guidance_optimizer": "gradient"},
+    "+ L-BFGS guidance per step": {"inference_guidance": 4, "guidance_final": 0,
+                                   "guidance_space": "network", "guidance_optimizer": "lbfgs"},
+}
 #: Keys of every row -> column header of the table.
 COLUMNS = {
     "foot_skating": "foot skating ↓",
-    "keypose_mpjpe_3d": "keypose MPJPE-3D (m) ↓",
+    "keypose_mpjpe_3d": "keypose MPJPE-3D, placed (m) ↓",
+    "keypose_pose_3d": "keypose pose err. (m) ↓",
     "trajectory_error_3d": "traj. err.-3D (m) ↓",
     "auj": "AUJ ↓",
     "pj": "PJ",
@@ -217,6 +236,7 @@ def clip_metrics(motions, conds, seconds=0.0):
     return {
         "foot_skating": float(np.mean(foot_skating_ratio(x))),
         "keypose_mpjpe_3d": mpjpe(key, K),                 # equal joints per clip: mean of means
+        "keypose_pose_3d": mpjpe(key, K, root_relative="xz"),   # the pose, wherever it stands
         "trajectory_error_3d": trajectory_error(
             x, np.stack([c.trajectory for c in conds]), TRAJECTORY_JOINTS,
             np.stack([c.mask for c in conds])),            # pooled over controlled points
@@ -266,13 +286,14 @@ def _load(path, flag, need_control=True):
 
 
 def _sample(gen, data, conds, controlled, steps, guidance, seed, progress, label,
-            guided=False, body_constraints=True):
+            options=None, body_constraints=True):
+    """Generate one clip per window; ``options`` are the guidance options of a controlled
+    row (:data:`GUIDED`, :data:`UNGUIDED` or a :data:`GUIDANCE_VARIANTS` value)."""
     from tqdm.auto import tqdm
 
     out, total = [], 0.0
     for i in tqdm(range(len(conds)), desc=label, disable=not progress, leave=False):
-        kw = ({**conds[i].generator_kwargs(), **(GUIDED if guided else UNGUIDED)}
-              if controlled else {})
+        kw = ({**conds[i].generator_kwargs(), **(options or UNGUIDED)} if controlled else {})
         tic = time.perf_counter()
         out.append(gen(data["text"][i], seed=seed + i, guidance_scale=guidance, steps=steps,
                        body_constraints=body_constraints, **kw))           # (40, 22, 3)
@@ -282,7 +303,7 @@ def _sample(gen, data, conds, controlled, steps, guidance, seed, progress, label
 
 def evaluate(control, single_controlnet=None, windows=64, steps=50, guidance=2.5, seed=0,
              out=None, progress=True, data_root=None, body_constraints=True,
-             control_guidance=1.0):
+             control_guidance=1.0, guidance_variants=False):
     """Evaluate a control checkpoint on held-out Bandai-Namco windows (module docstring).
 
     Keyword names match the CLI flags.
@@ -304,6 +325,9 @@ def evaluate(control, single_controlnet=None, windows=64, steps=50, guidance=2.5
     body_constraints : bool, the generator's rigid-bone / floor projection
         (:func:`~physlab.motion.body.constrain_body`); False measures the networks' raw
         output.
+    guidance_variants : bool, add the rows of :data:`GUIDANCE_VARIANTS` for the
+        ``--control`` checkpoint (Table A3's analogue: per-step guidance through the network,
+        first-order and L-BFGS; ~5-10 s per clip on one thread).
 
     Returns
     -------
@@ -335,10 +359,15 @@ def evaluate(control, single_controlnet=None, windows=64, steps=50, guidance=2.5
     x, s = _sample(gens["keypose + trajectory"], data, conds, False, label="text only",
                    guidance=float(guidance), **kw)
     rows["text only"] = clip_metrics(x, conds, s)
+    if not isinstance(guidance_variants, (bool, np.bool_)):
+        raise TypeError(f"guidance_variants must be True or False, got {guidance_variants!r}")
     for name, gen in gens.items():
-        for guided in (False, True):
-            label = name + (" + guidance" if guided else "")
-            x, s = _sample(gen, data, conds, True, label=label, guided=guided,
+        variants = {"": UNGUIDED, " + guidance": GUIDED}
+        if guidance_variants and name == "keypose + trajectory":
+            variants.update({" " + k: v for k, v in GUIDANCE_VARIANTS.items()})
+        for suffix, options in variants.items():
+            label = name + suffix
+            x, s = _sample(gen, data, conds, True, label=label, options=options,
                            guidance=float(control_guidance), **kw)
             rows[label] = clip_metrics(x, conds, s)
 
@@ -349,7 +378,8 @@ def evaluate(control, single_controlnet=None, windows=64, steps=50, guidance=2.5
                   "windows_available": data["n_available"], "steps": int(steps),
                   "guidance": float(guidance), "control_guidance": float(control_guidance),
                   "seed": int(seed), "min_t_r": MIN_T_R,
-                  "test_takes": list(TEST_TAKES), "body_constraints": bool(body_constraints)}
+                  "test_takes": list(TEST_TAKES), "body_constraints": bool(body_constraints),
+                  "guidance_variants": bool(guidance_variants)}
         atomic_write_text(out / "table.md", format_table(rows) + "\n")
         atomic_write_text(out / "rows.json", json.dumps(
             {"rows": rows, "config": config, "attribution": BANDAI_NAMCO_ATTRIBUTION},
@@ -358,18 +388,20 @@ def evaluate(control, single_controlnet=None, windows=64, steps=50, guidance=2.5
 
 
 def format_table(rows):
-    """Markdown table of :func:`evaluate`'s rows (errors in m, time in s) with the data
-    attribution line."""
-    head = ["method", *COLUMNS.values()]
+    """Markdown table of :func:`evaluate`'s rows (errors in m, time in s; one column per key
+    of :data:`COLUMNS` that the rows have) with the data attribution line."""
+    keys = [k for k in COLUMNS if rows and all(k in r for r in rows.values())]
+    head = ["method", *(COLUMNS[k] for k in keys)]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for name, r in rows.items():
-        cells = [f"{r['foot_skating']:.4f}", f"{r['keypose_mpjpe_3d']:.4f}",
-                 f"{r['trajectory_error_3d']:.4f}", f"{r['auj']:.4f}", f"{r['pj']:.4f}",
-                 "—" if name == "real clips" else f"{r['seconds_per_clip']:.3f}"]
+        cells = ["—" if (k == "seconds_per_clip" and name == "real clips")
+                 or not np.isfinite(r[k]) else f"{r[k]:.3f}" if k == "seconds_per_clip"
+                 else f"{r[k]:.4f}" for k in keys]
         lines.append("| " + " | ".join([name, *cells]) + " |")
     n = next(iter(rows.values()))["n_clips"] if rows else 0
     lines += ["", (f"{n} held-out windows (take {', '.join(TEST_TAKES)}), one Cross condition "
-              f"each; AUJ relative to PJ_GT = {HUMANML3D_GT_PEAK_JERK:.4f} m/frame³."),
+              f"each; AUJ relative to PJ_GT = {HUMANML3D_GT_PEAK_JERK:.4f} m/frame³; "
+              f"edge step ratio: — when no clip has a partial trajectory."),
               f"Data: {BANDAI_NAMCO_ATTRIBUTION}"]
     return "\n".join(lines)
 
@@ -486,7 +518,12 @@ def _parser():
         prog="python -m physlab.motion.evaluate",
         description="Held-out Bandai-Namco evaluation of the motion generator (Sketch2Anim "
                     "Table 2 analogue): real clips, text only, keypose + trajectory, single "
-                    "ControlNet; foot skating, MPJPE-3D, trajectory error, AUJ, PJ, s/clip.")
+                    "ControlNet; foot skating, MPJPE-3D, trajectory error, AUJ, PJ, s/clip.",
+        epilog="examples:\n"
+               "  %(prog)s --control data/motion/sketch2anim_control.pt --windows 16\n"
+               "  %(prog)s --control runs/control.pt --single-controlnet runs/single.pt "
+               "--out runs/eval\n"
+               "  %(prog)s --control runs/smoke_control.pt --windows 2 --steps 2    # seconds")
     p.add_argument("--control", required=True, help="control checkpoint (train --stage control)")
     p.add_argument("--single-controlnet", default=None,
                    help="optional single-ControlNet control checkpoint (Table 2 ablation)")
@@ -498,7 +535,13 @@ def _parser():
                    help="text CFG scale of the controlled rows (default 1)")
     p.add_argument("--seed", type=int, default=0, help="conditions and sampling seed")
     p.add_argument("--out", type=Path, default=None, help="folder for table.md and rows.json")
-    p.add_argument("--data-root", default=None, help="Bandai-Namco folder (labels.csv)")
+    p.add_argument("--data", "--data-root", dest="data_root", default=None,
+                   help="folder of BVH clips with a labels.csv in the Bandai-Namco format "
+                        "(default: ../shared/data/mocap/bandai_namco); its take-002 clips "
+                        "are evaluated")
+    p.add_argument("--guidance-variants", action="store_true",
+                   help="add per-step guidance rows through the network, first-order and "
+                        "L-BFGS (Table A3; ~5-10 s per clip)")
     p.add_argument("--adherence", action="store_true",
                    help="also run the text-adherence check of the text-only generator")
     p.add_argument("--adherence-seeds", type=int, default=4,
@@ -510,24 +553,22 @@ def _parser():
 
 
 def main(argv=None):
-    """Command-line entry point: prints the table; returns the rows."""
-    p = _parser()
-    args = p.parse_args(argv)
-    try:
-        rows = evaluate(args.control, single_controlnet=args.single_controlnet,
-                        windows=args.windows, steps=args.steps, guidance=args.guidance,
-                        control_guidance=args.control_guidance,
-                        seed=args.seed, out=args.out, progress=not args.no_progress,
-                        data_root=args.data_root,
-                        body_constraints=not args.no_body_constraints)
-        adherence = None
-        if args.adherence:
-            adherence = text_adherence(args.control, seeds=args.adherence_seeds,
-                                       steps=args.steps, guidance=args.guidance,
-                                       progress=not args.no_progress,
-                                       data_root=args.data_root)
-    except (FileNotFoundError, ValueError) as e:
-        p.error(str(e))                                                    # exit code 2
+    """Command-line entry point: prints the table; returns the rows. A missing checkpoint or a
+    bad value raises (``python -m`` / ``physlab evaluate motion`` print it as one line, exit 2)."""
+    args = _parser().parse_args(argv)
+    rows = evaluate(args.control, single_controlnet=args.single_controlnet,
+                    windows=args.windows, steps=args.steps, guidance=args.guidance,
+                    control_guidance=args.control_guidance,
+                    seed=args.seed, out=args.out, progress=not args.no_progress,
+                    data_root=args.data_root,
+                    body_constraints=not args.no_body_constraints,
+                    guidance_variants=args.guidance_variants)
+    adherence = None
+    if args.adherence:
+        adherence = text_adherence(args.control, seeds=args.adherence_seeds,
+                                   steps=args.steps, guidance=args.guidance,
+                                   progress=not args.no_progress,
+                                   data_root=args.data_root)
     print(format_table(rows))
     if adherence is not None:
         print()

@@ -127,7 +127,12 @@ def mpjpe(pred, gt, frames=None, root_relative=False):
     pred, gt : float arrays of the same shape ``(..., J, 3)``, e.g. ``(J, 3)`` poses,
         ``(T, J, 3)`` motions or ``(B, T, J, 3)`` batches; metres.
     frames : None, int or int array: frames (axis -3) to compare; None = all.
-    root_relative : bool, subtract joint 0 (pelvis) of each pose first.
+    root_relative : bool or ``"xz"``: True subtracts joint 0 (pelvis) of each pose first;
+        ``"xz"`` subtracts only its horizontal position (heights kept). A Sketch2Anim keypose
+        carries no global placement (Sec. 3: "the keypose does not provide global positional
+        information"), so the pose error of a keypose is ``root_relative="xz"`` — the drawn
+        pose stood where the clip's pelvis is — and the absolute error adds where the clip
+        put it.
 
     Returns
     -------
@@ -147,8 +152,11 @@ def mpjpe(pred, gt, frames=None, root_relative=False):
         if np.any((fr < -T) | (fr >= T)):
             raise ValueError(f"frames {fr.tolist()} out of range for {T} frames")
         p, g = np.take(p, fr, axis=-3), np.take(g, fr, axis=-3)
+    if root_relative not in (True, False, "xz"):
+        raise ValueError(f"root_relative must be True, False or 'xz', got {root_relative!r}")
     if root_relative:
-        p, g = p - p[..., :1, :], g - g[..., :1, :]
+        keep = np.array([1.0, 0.0, 1.0]) if root_relative == "xz" else 1.0
+        p, g = p - p[..., :1, :] * keep, g - g[..., :1, :] * keep
     return float(np.linalg.norm(p - g, axis=-1).mean())
 
 

@@ -56,6 +56,9 @@ PAGE_TIMEOUT = 60
 STALL_TIMEOUT = 120
 UPDATE_TIMEOUT = 30
 MAX_WAIT = 900
+# pytest-timeout's backstop for a whole test: above MAX_WAIT (a run-all wait plus widget waits),
+# so a busy machine fails on a named wait above, never on an anonymous kill.
+HARD_TIMEOUT = MAX_WAIT + 600
 SETTLE_SECONDS = 1.0  # the widget's image must stay unchanged this long (with the kernel idle)
 # A slider whose description eats the row leaves no room for its track (lesson 08 once).
 MIN_TRACK_PX = 100
@@ -458,7 +461,7 @@ def lab(tmp_path):
 
 
 @pytest.mark.e2e
-@pytest.mark.timeout(300)
+@pytest.mark.timeout(HARD_TIMEOUT)
 def test_lesson01_interact_widget_redraws_figure(lab, tmp_path):
     _in_browser(lab, tmp_path, _drive_lesson01)
 
@@ -516,7 +519,7 @@ LESSON04_BALL_CONTROLS = ["E", "ν", "dt (s)"]
 
 
 @pytest.mark.e2e
-@pytest.mark.timeout(300)
+@pytest.mark.timeout(HARD_TIMEOUT)
 def test_lesson04_two_interact_widgets_redraw_independently(lab, tmp_path):
     _in_browser(lab, tmp_path, _drive_lesson04)
 
@@ -576,7 +579,7 @@ MAX_DIFFERING_PIXELS = 20  # a re-rendered figure may differ by antialiasing, no
 
 
 @pytest.mark.e2e
-@pytest.mark.timeout(300)
+@pytest.mark.timeout(HARD_TIMEOUT)
 def test_lesson06_arm_widget_deforms_the_drawing_without_flips(lab, tmp_path):
     _in_browser(lab, tmp_path, _drive_lesson06)
 
@@ -653,7 +656,7 @@ LESSON09_CONTROLS = ["guidance scale w", "action"]
 
 
 @pytest.mark.e2e
-@pytest.mark.timeout(300)
+@pytest.mark.timeout(HARD_TIMEOUT)
 def test_lesson09_guidance_widget_regenerates_the_motion(lab, tmp_path):
     _in_browser(lab, tmp_path, _drive_lesson09)
 
@@ -692,7 +695,7 @@ def test_every_widget_lesson_is_driven_in_the_browser():
 
 
 @pytest.mark.e2e
-@pytest.mark.timeout(600)
+@pytest.mark.timeout(2 * HARD_TIMEOUT)
 @pytest.mark.parametrize("lesson", sorted(set(WIDGET_LESSONS) - SPECIFIC_TESTS))
 def test_lesson_widgets_render_and_redraw(lab, tmp_path, lesson):
     """Any other lesson: every widget draws one figure with usable sliders; moving the first

@@ -17,6 +17,7 @@ from physlab.motion.evaluate import (
     eval_conditions,
     evaluate,
     format_table,
+    GUIDANCE_VARIANTS,
     held_out_windows,
     main,
 )
@@ -120,13 +121,30 @@ def test_clip_metrics_analytic():
     assert r["auj"] == pytest.approx(37 * 0.033031363)          # |0 - PJ_GT| over 37 frames
     shifted = clip_metrics(x + [0.0, 0.0, 0.1], conds)           # 10 cm off everywhere
     assert shifted["keypose_mpjpe_3d"] == pytest.approx(0.1)
+    assert shifted["keypose_pose_3d"] == pytest.approx(0.0, abs=1e-12)   # same pose, moved
     assert shifted["trajectory_error_3d"] == pytest.approx(0.1)
+    lifted = clip_metrics(x + [0.0, 0.03, 0.0], conds)            # 3 cm up: a pose error too
+    assert lifted["keypose_pose_3d"] == pytest.approx(0.03)
 
 
 def test_format_table_has_rows_and_attribution(rows):
     t = format_table(rows)
     assert all(f"| {name} |" in t for name in ROW_NAMES)
     assert BANDAI_NAMCO_ATTRIBUTION in t
+    table = [line for line in t.splitlines() if line.startswith("|")]
+    assert {line.count("|") for line in table} == {len(COLUMNS) + 2}   # one cell per header
+
+
+def test_guidance_variant_rows(ckpts):
+    """Table A3's analogue: per-step guidance rows for the control checkpoint only."""
+    res = evaluate(ckpts["control"], single_controlnet=ckpts["single"], windows=1, steps=2,
+                   progress=False, body_constraints=False, guidance_variants=True)
+    extra = [f"keypose + trajectory {k}" for k in GUIDANCE_VARIANTS]
+    assert list(res) == [*ROW_NAMES[:4], *extra, *ROW_NAMES[4:]]
+    for name in extra:
+        assert res[name]["seconds_per_clip"] > 0 and math.isfinite(res[name]["auj"])
+    with pytest.raises(TypeError, match="guidance_variants"):
+        evaluate(ckpts["control"], windows=1, steps=1, progress=False, guidance_variants="yes")
 
 
 def test_cli_writes_table_and_rows(ckpts, tmp_path, capsys):
@@ -147,9 +165,9 @@ def test_missing_checkpoint(ckpts, tmp_path):
         evaluate(tmp_path / "nope.pt", **FAST)
     with pytest.raises(FileNotFoundError, match="--single-controlnet"):
         evaluate(ckpts["control"], single_controlnet=tmp_path / "nope.pt", **FAST)
-    with pytest.raises(SystemExit) as e:
-        main(["--control", str(tmp_path / "nope.pt"), "--no-progress"])
-    assert e.value.code == 2
+    from physlab._cli import guard
+    assert guard("python -m physlab.motion.evaluate", main,
+                 ["--control", str(tmp_path / "nope.pt"), "--no-progress"]) == 2
 
 
 def test_base_checkpoint_is_not_a_control_checkpoint(ckpts):

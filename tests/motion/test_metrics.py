@@ -113,6 +113,18 @@ def test_mpjpe_translation_is_its_norm():
     assert mpjpe(pred[None], motion[None], frames=-6) == pytest.approx(0.05)   # batched
 
 
+def test_mpjpe_xz_keeps_heights():
+    """root_relative="xz" ignores where the pose stands on the floor, not how high it is."""
+    pose = _still(1)[0]
+    assert mpjpe(pose + [0.3, 0.0, -0.4], pose, root_relative="xz") == pytest.approx(0, abs=1e-15)
+    assert mpjpe(pose + [0.3, 0.02, -0.4], pose, root_relative="xz") == pytest.approx(0.02)
+    bent = pose.copy()
+    bent[5] += [0.0, 0.0, 0.22]                                     # one joint of 22 moved
+    assert mpjpe(bent + [1.0, 0.0, 1.0], pose, root_relative="xz") == pytest.approx(0.01)
+    with pytest.raises(ValueError, match="root_relative"):
+        mpjpe(pose, pose, root_relative="y")
+
+
 def test_mpjpe_errors():
     with pytest.raises(ValueError, match="same shape"):
         mpjpe(np.zeros((22, 3)), np.zeros((21, 3)))
