@@ -9,6 +9,10 @@ Two entry points, both pure functions (state in, trajectory out):
 * :func:`simulate` advances a second-order mechanical system (``mass``, ``force``, and for
   implicit Euler ``force_jacobians``) such as :class:`physlab.springs.SpringSystem`.
 
+Each scheme is one small step function (``*_step``: :data:`STEPS` for :func:`integrate`,
+:data:`MECHANICAL_STEPS` for :func:`simulate`) that the time loop picks once and calls at
+every step. The sparse linear solves of implicit Euler live in :mod:`physlab.linear_solver`.
+
 References
 ----------
 [slides] T. Popa, "Animation for Computer Games — Physics-based Animation", COMP 477/6311
@@ -19,11 +23,13 @@ References
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Callable, Sequence
+from typing import Callable
 
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
+
+from .linear_solver import ConvergenceError, LinearSolver
 
 __all__ = [
     "METHODS",
@@ -37,7 +43,18 @@ __all__ = [
     "newton_solve",
     "finite_difference_jacobian",
     "integrate",
+    "STEPS",
+    "explicit_euler_step",
+    "midpoint_step",
+    "heun_step",
+    "rk4_step",
+    "implicit_euler_step",
+    "trapezoidal_step",
     "simulate",
+    "MECHANICAL_STEPS",
+    "mechanical_explicit_euler_step",
+    "mechanical_semi_implicit_euler_step",
+    "mechanical_implicit_euler_step",
     "stability_function",
     "convergence_order",
 ]
@@ -49,14 +66,6 @@ MECHANICAL_METHODS = ("explicit_euler", "semi_implicit_euler", "implicit_euler")
 IMPLICIT_METHODS = ("implicit_euler", "trapezoidal")
 #: Classical order of accuracy of each method of :func:`integrate`.
 ORDER = {"explicit_euler": 1, "midpoint": 2, "heun": 2, "rk4": 4, "implicit_euler": 1, "trapezoidal": 2}
-
-
-class ConvergenceError(RuntimeError):
-    """Newton–Raphson did not converge. ``residuals`` holds the residual norm per iteration."""
-
-    def __init__(self, message: str, residuals: Sequence[float]):
-        super().__init__(message)
-        self.residuals = list(residuals)
 
 
 #: :func:`simulate` raises :class:`SimulationDiverged` when a particle gets this many times
@@ -335,6 +344,120 @@ def _identity_like(Jf, d):
     return sp.identity(d, format="csr") if sp.issparse(Jf) else np.eye(d)
 
 
+# One step of each scheme, ``y_k -> y_{k+1}``: ``f`` is a callable ``(t, y (d,)) -> (d,)``
+# float array, ``t`` the time at the start of the step, ``y`` the state ``(d,)`` float array
+# there, ``dt`` (``h``) the step > 0; each returns ``y_{k+1}`` ``(d,)``. :func:`integrate`
+# calls the one of its ``method`` at every step.
+
+
+def explicit_euler_step(f, t, y, dt):
+    """Explicit (forward) Euler, slides eq. (3)–(4): ``y_{k+1} = y_k + h f(t_k, y_k)``.
+
+    First order; one evaluation of ``f``. ``y`` ``(d,)`` -> ``y_{k+1}`` ``(d,)``."""
+    return y + dt * f(t, y)  # eq. (3)
+
+
+def midpoint_step(f, t, y, dt):
+    """Explicit midpoint rule: ``y_{k+1} = y_k + h f(t_k + h/2, y_k + h/2 f_k)``, the Taylor
+    step of slides eq. (5) to second order with ``ÿ`` as the difference quotient of eq. (6).
+
+    Second order; two evaluations of ``f``. ``y`` ``(d,)`` -> ``y_{k+1}`` ``(d,)``."""
+    fk = f(t, y)
+    return y + dt * f(t + dt / 2, y + dt / 2 * fk)  # eq. (5) with eq. (6)
+
+
+def heun_step(f, t, y, dt):
+    """Heun's method: ``y_{k+1} = y_k + h/2 (f_k + f(t_{k+1}, y_k + h f_k))``, the trapezoidal
+    rule of slides eq. (7) with the unknown ``ẏ_{k+1}`` predicted by an explicit Euler step.
+
+    Second order; two evaluations of ``f``. ``y`` ``(d,)`` -> ``y_{k+1}`` ``(d,)``."""
+    fk = f(t, y)
+    return y + dt / 2 * (fk + f(t + dt, y + dt * fk))  # eq. (7), predictor-corrector
+
+
+def rk4_step(f, t, y, dt):
+    """Classical 4th-order Runge–Kutta:
+    ``y_{k+1} = y_k + h/6 (k_1 + 2 k_2 + 2 k_3 + k_4)`` with ``k_1 = f(t_k, y_k)``,
+    ``k_2 = f(t_k + h/2, y_k + h/2 k_1)``, ``k_3 = f(t_k + h/2, y_k + h/2 k_2)``,
+    ``k_4 = f(t_k + h, y_k + h k_3)``: it agrees with the Taylor series that slides eq. (5)
+    stops after ``h^2`` up to the ``h^4`` term.
+
+    Fourth order; four evaluations of ``f``. ``y`` ``(d,)`` -> ``y_{k+1}`` ``(d,)``."""
+    k1 = f(t, y)
+    k2 = f(t + dt / 2, y + dt / 2 * k1)
+    k3 = f(t + dt / 2, y + dt / 2 * k2)
+    k4 = f(t + dt, y + dt * k3)
+    return y + dt / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+
+
+def implicit_euler_step(f, t, y, dt, jac=None, tol=1e-10, max_iter=50, line_search=True,
+                        history=None):
+    """Implicit (backward) Euler, slides eq. (12): ``y_{k+1} = y_k + h f(t_{k+1}, y_{k+1})``.
+
+    Solves ``G(z) = z - y_k - h f(t_{k+1}, z) = 0`` by :func:`newton_solve` (Jacobian
+    ``I - h J_f``) from the explicit Euler predictor ``y_k + h f_k``. First order, stable for
+    every ``h`` on decaying problems.
+
+    Parameters
+    ----------
+    f, t, y, dt : ``f(t, y) -> (d,)``, the time, the state ``(d,)`` and the step > 0.
+    jac : callable ``(t, y) -> (d, d)`` dense or sparse ``df/dy``; central finite
+        differences (:func:`finite_difference_jacobian`) when None.
+    tol, max_iter, line_search : :func:`newton_solve` settings.
+    history : optional list; the step appends its Newton residual norms (one list) to it.
+
+    Returns
+    -------
+    ``y_{k+1}`` ``(d,)``. When ``f(t, y)`` is not finite there is nothing to solve: that
+    non-finite value is returned for the caller to report.
+
+    Raises
+    ------
+    ConvergenceError when Newton fails.
+    """
+    fk = f(t, y)
+    return _implicit_step(f, t, y, dt, fk, y, 1.0, jac, tol, max_iter, line_search,
+                          history)  # eq. (12)
+
+
+def trapezoidal_step(f, t, y, dt, jac=None, tol=1e-10, max_iter=50, line_search=True,
+                     history=None):
+    """Trapezoidal rule (implicit), slides eq. (7):
+    ``y_{k+1} = y_k + h/2 (f(t_k, y_k) + f(t_{k+1}, y_{k+1}))``.
+
+    Solves ``G(z) = z - y_k - h/2 f_k - h/2 f(t_{k+1}, z) = 0`` by :func:`newton_solve`
+    (Jacobian ``I - h/2 J_f``) from the explicit Euler predictor. Second order; arguments,
+    result and errors as :func:`implicit_euler_step`."""
+    fk = f(t, y)
+    return _implicit_step(f, t, y, dt, fk, y + dt / 2 * fk, 0.5, jac, tol, max_iter,
+                          line_search, history)  # eq. (7)
+
+
+def _implicit_step(f, t, y, h, fk, rhs, c, jac, tol, max_iter, line_search, history):
+    """``z`` with ``G(z) = z - rhs - c h f(t + h, z) = 0`` by Newton from ``y + h f_k``."""
+    if not np.all(np.isfinite(fk)):
+        return fk  # non-finite: reported by the caller
+    tn, d = t + h, y.size
+
+    def G(z):
+        return z - rhs - c * h * f(tn, z)  # eq. (12) / eq. (7) as a root problem
+
+    def JG(z):
+        Jz = finite_difference_jacobian(f, tn, z) if jac is None else jac(tn, z)
+        return _identity_like(Jz, d) - c * h * Jz
+
+    res = newton_solve(G, JG, y + h * fk, tol=tol, max_iter=max_iter, line_search=line_search)
+    if history is not None:
+        history.append(res.residuals)
+    return res.z
+
+
+#: The step function of each method of :func:`integrate`.
+STEPS = {"explicit_euler": explicit_euler_step, "midpoint": midpoint_step, "heun": heun_step,
+         "rk4": rk4_step, "implicit_euler": implicit_euler_step,
+         "trapezoidal": trapezoidal_step}
+
+
 def integrate(
     f: Callable[[float, np.ndarray], np.ndarray],
     y0,
@@ -363,6 +486,9 @@ def integrate(
     The implicit methods solve their nonlinear equation ``G(y_{k+1}) = 0`` with
     :func:`newton_solve`, Jacobian ``I - c h J_f`` (``c = 1`` or ``1/2``) from ``jac`` or
     by central finite differences, starting from an explicit Euler predictor.
+    One step of each method is a function of its own (:data:`STEPS`):
+    :func:`explicit_euler_step`, :func:`midpoint_step`, :func:`heun_step`, :func:`rk4_step`,
+    :func:`implicit_euler_step`, :func:`trapezoidal_step`.
 
     Parameters
     ----------
@@ -434,56 +560,30 @@ def integrate(
         return out
 
     def Jf(tt, yy):
-        if jac is None:
-            return finite_difference_jacobian(F, tt, yy)
         Jm = jac(tt, yy)
         if Jm.shape != (d, d):
             raise ValueError(f"jac(t, y) must return shape ({d}, {d}), got {Jm.shape}")
         return Jm
 
     newton_hist = []
+    step = STEPS[method]  # the scheme, chosen once
+    options = {}
+    if method in IMPLICIT_METHODS:
+        options = dict(jac=None if jac is None else Jf, tol=tol, max_iter=max_iter,
+                       line_search=line_search, history=newton_hist)
     steps = range(n)
     if progress:
         from tqdm.auto import tqdm
 
         steps = tqdm(steps, desc=method, leave=False)
     for k in steps:
-        tk, h, yk = t[k], t[k + 1] - t[k], y[k]
+        tk, h = t[k], t[k + 1] - t[k]
         with np.errstate(over="ignore", invalid="ignore"):
-            fk = F(tk, yk)
-            if method == "explicit_euler":
-                yn = yk + h * fk  # eq. (3)
-            elif method == "midpoint":
-                yn = yk + h * F(tk + h / 2, yk + h / 2 * fk)
-            elif method == "heun":
-                yn = yk + h / 2 * (fk + F(tk + h, yk + h * fk))  # eq. (7), predictor-corrector
-            elif method == "rk4":
-                k2 = F(tk + h / 2, yk + h / 2 * fk)
-                k3 = F(tk + h / 2, yk + h / 2 * k2)
-                k4 = F(tk + h, yk + h * k3)
-                yn = yk + h / 6 * (fk + 2 * k2 + 2 * k3 + k4)
-            else:
-                c = 1.0 if method == "implicit_euler" else 0.5
-                rhs = yk + (0.0 if method == "implicit_euler" else h / 2 * fk)
-
-                def G(z, tn=tk + h, rhs=rhs, c=c, h=h):
-                    return z - rhs - c * h * F(tn, z)  # eq. (12) / eq. (7) as a root problem
-
-                def JG(z, tn=tk + h, c=c, h=h):
-                    Jz = Jf(tn, z)
-                    return _identity_like(Jz, d) - c * h * Jz
-
-                if np.all(np.isfinite(fk)):
-                    try:
-                        res = newton_solve(G, JG, yk + h * fk, tol=tol, max_iter=max_iter,
-                                           line_search=line_search)
-                    except ConvergenceError as err:
-                        raise ConvergenceError(f"{method} step {k + 1} (t = {tk:.6g}): {err}",
-                                               err.residuals) from None
-                    yn = res.z
-                    newton_hist.append(res.residuals)
-                else:
-                    yn = fk  # non-finite: reported below
+            try:
+                yn = step(F, tk, y[k], h, **options)
+            except ConvergenceError as err:
+                raise ConvergenceError(f"{method} step {k + 1} (t = {tk:.6g}): {err}",
+                                       err.residuals) from None
         if not np.all(np.isfinite(yn)):
             partial = ODEResult(t[: k + 1].copy(), y[: k + 1].copy(), method, dt, nfev, newton_hist)
             raise SimulationDiverged(k + 1, tk, dt, method, partial)
@@ -535,172 +635,132 @@ def _implicit_matrix(M_flat, K, D, h, pinned_dofs):
     return A
 
 
-def _single_threaded_blas(controller):
-    """Context manager limiting BLAS thread pools to one thread (no-op without threadpoolctl).
-
-    ``controller`` is a cached ``threadpoolctl.ThreadpoolController`` (inspecting the loaded
-    libraries is the expensive part) or None."""
-    if controller is None:
-        import contextlib
-
-        return contextlib.nullcontext()
-    return controller.limit(limits=1, user_api="blas")
+# One step of each scheme, ``(x_k, v_k) -> (x_{k+1}, v_{k+1})``: ``force(x, v, t) -> (n, d)``
+# (N), ``inv_m`` ``(n,)`` inverse masses (1/kg; 0 for pinned particles), positions ``x`` and
+# velocities ``v`` ``(n, d)`` float arrays (m, m/s) at time ``t`` (s), ``dt`` (``h``) the step
+# (s) > 0; each returns new arrays ``(x_{k+1}, v_{k+1})``, both ``(n, d)``. :func:`simulate`
+# calls the one of its ``method`` at every step, then projects and pins.
 
 
-def _threadpool_controller():
-    try:
-        from threadpoolctl import ThreadpoolController
-    except ImportError:
-        return None
-    return ThreadpoolController()
+def mechanical_explicit_euler_step(force, inv_m, x, v, t, dt):
+    """Explicit Euler for ``y = (x, v)``, slides eq. (4):
+    ``x_{k+1} = x_k + h v_k``, ``v_{k+1} = v_k + h M^-1 f(x_k, v_k, t_k)``.
+
+    First order; gains energy on every undamped oscillation, at any ``h``."""
+    a = force(x, v, t) * inv_m[:, None]
+    xn = x + dt * v  # eq. (4)
+    vn = v + dt * a
+    return xn, vn
 
 
-#: Systems with at most this many unknowns are solved densely (``numpy.linalg.solve``) by
-#: every :class:`LinearSolver` kind: exact, and faster than building sparse factors.
-DENSE_MAX = 64
+def mechanical_semi_implicit_euler_step(force, inv_m, x, v, t, dt):
+    """Semi-implicit (symplectic) Euler, PhysAnimator supp. Eq. (7):
+    ``v_{k+1} = v_k + h M^-1 f(x_k, v_k, t_k)``, ``x_{k+1} = x_k + h v_{k+1}``.
+
+    First order; its energy error stays bounded while ``h`` is below ``2 / ω_max``
+    (:func:`physlab.springs.critical_time_step`)."""
+    vn = v + dt * force(x, v, t) * inv_m[:, None]  # PhysAnimator Eq. (7)
+    xn = x + dt * vn
+    return xn, vn
 
 
-class LinearSolver:
-    """Sparse solver for the implicit-Euler systems ``A dv = b``, kept across steps.
+def mechanical_implicit_euler_step(system, force, x, v, t, dt, M_flat, pinned_dofs,
+                                   newton="full", tol=1e-6, atol=1e-10, max_iter=20,
+                                   solver=None, dv_guess=None, history=None):
+    """Implicit Euler for ``y = (x, v)``, slides eq. (12):
+    ``v_{k+1} = v_k + h M^-1 f(x_{k+1}, v_{k+1}, t_{k+1})``, ``x_{k+1} = x_k + h v_{k+1}``.
 
-    ``kind``:
+    The unknown is ``v' = v_{k+1}``, a root of ``G(v') = M (v' - v_k) - h f(x_k + h v', v')``
+    with Jacobian ``M - h D - h^2 K`` (``K = df/dx``, ``D = df/dv`` from
+    ``system.force_jacobians``). First the linearised step of [BW] Eq. (6),
+    ``(M - h D - h^2 K) dv = h (f_k + h K v_k)`` with ``K, D`` at ``(x_k, v_k)``: the answer
+    for ``newton="baraff_witkin"``; ``newton="full"`` iterates Newton from there until
+    ``|G| <= max(tol |G(v_k)|, atol)`` (``G`` in N·s), each linear solve only as accurate as
+    the iteration needs (inexact Newton, Eisenstat–Walker).
 
-    * ``"direct"``: a fresh SuperLU factorisation per solve. Robust for any non-singular
-      ``A``; its cost grows quickly with size (fill-in). Above 2,000 unknowns the rows and
-      columns are first reordered by METIS nested dissection (computed once per sparsity
-      pattern), else SuperLU's COLAMD ordering is used.
-    * ``"cg"``: conjugate gradients with a Jacobi preconditioner, warm-started from the
-      previous solution; needs ``A`` symmetric positive definite (true for springs that
-      are not strongly compressed).
-    * ``"lagged"``: conjugate gradients preconditioned by the SuperLU factors of an
-      *earlier* matrix. The matrix ``M - h D - h^2 K`` changes little from one Newton
-      iteration or time step to the next, so the old factors are an excellent
-      preconditioner; the factorisation is refreshed only when CG needs more than
-      ``refactor_after`` iterations (or fails), and then used directly.
-    * ``"auto"``: ``"direct"`` below 1,000 unknowns, ``"lagged"`` above (measured in
-      ``benchmarks/bench_springs.py``: lagged is 2–3× faster from ~2,000 unknowns).
+    Parameters
+    ----------
+    system : has ``force_jacobians(x, v, t) -> (K, D)`` sparse ``(n*d, n*d)``.
+    force : ``force(x, v, t) -> (n, d)`` (N), e.g. ``system.force``.
+    x, v, t, dt : positions and velocities ``(n, d)``, time (s), step (s) > 0.
+    M_flat : ``(n*d,)`` masses per unknown (kg), ``np.repeat(mass, d)``.
+    pinned_dofs : int array of the unknowns (``particle * d + axis``) held fixed.
+    newton, tol, atol, max_iter : as :func:`simulate`.
+    solver : a :class:`LinearSolver` (kept across steps for its factors); None: a new
+        ``LinearSolver("auto")``.
+    dv_guess : optional ``(n*d,)`` warm start of iterative solvers (the previous step's
+        velocity change).
+    history : optional list; the step appends its residual norms ``|G|`` (one list) to it.
 
-    ``rtol`` is the relative residual at which the iterative kinds stop.
-    ``stats`` counts factorisations, solves and CG iterations.
+    Returns
+    -------
+    ``(x_{k+1}, v_{k+1})``, both ``(n, d)``.
+
+    Raises
+    ------
+    ConvergenceError when full Newton does not reach its target.
     """
+    if solver is None:
+        solver = LinearSolver()
+    n, d = x.shape
+    vk = v.reshape(-1)
+    h = dt  # the slides' notation
+    tn = t + h
+    # Baraff–Witkin linearised step at (x_k, v_k): (M - hD - h^2 K) dv = h (f_k + h K v_k)
+    K, D = system.force_jacobians(x, v, t)
+    A = _implicit_matrix(M_flat, K, D, h, pinned_dofs)
+    b = h * (force(x, v, t).reshape(-1) + h * (K @ vk))
+    b[pinned_dofs] = 0.0
+    # the linearised step is the answer for Baraff–Witkin, only a starting guess for full
+    # Newton (whose iterations correct it): solve it loosely there
+    dv = solver.solve(A, b, x0=dv_guess, rtol=None if newton == "baraff_witkin" else 1e-4)
+    z = vk + dv
 
-    KINDS = ("auto", "direct", "cg", "lagged")
+    def G(zz):
+        g = M_flat * (zz - vk) - h * force(x + h * zz.reshape(n, d), zz.reshape(n, d), tn).reshape(-1)
+        g[pinned_dofs] = 0.0
+        return g
 
-    def __init__(self, kind="auto", rtol=1e-8, refactor_after=6):
-        if kind not in self.KINDS:
-            raise ValueError(f"unknown solver {kind!r}; valid solvers are: {', '.join(self.KINDS)}")
-        self.kind, self.rtol, self.refactor_after = kind, rtol, refactor_after
-        self._lu = None
-        self._lu_shape = None
-        self._perm = None
-        self._controller = False  # created on first CG solve
-        self.stats = dict(factorizations=0, solves=0, cg_iterations=0)
-
-    #: ``"auto"`` uses ``"direct"`` below this many unknowns, ``"lagged"`` from here on
-    AUTO_DIRECT_BELOW = 1000
-
-    def resolve(self, n_unknowns):
-        """The kind actually used for a system of ``n_unknowns`` (resolves ``"auto"``)."""
-        if self.kind != "auto":
-            return self.kind
-        return "direct" if n_unknowns < self.AUTO_DIRECT_BELOW else "lagged"
-
-    def _ordering(self, A):
-        """Fill-reducing permutation of ``A``'s graph, cached while the pattern is unchanged.
-
-        Nested dissection from METIS (pymetis) when available: on a 100×100 cloth with bend
-        springs it gives 4.8M factor entries against 7.4M with SuperLU's COLAMD (similar fill
-        on small meshes). ``None`` means: let SuperLU use COLAMD.
-        """
-        key = (A.shape, A.nnz)
-        if self._perm is not None and self._perm[0] == key and np.array_equal(self._perm[1], A.indices):
-            return self._perm[2]
-        try:
-            import pymetis
-        except ImportError:  # optional: fall back to COLAMD
-            perm = None
+    g = G(z)
+    hist = [float(np.linalg.norm(G(vk))), float(np.linalg.norm(g))]
+    if newton == "full":
+        target = max(tol * hist[0], atol)  # relative to the first residual, absolute floor
+        it = 0
+        r, r_prev = hist[-1], hist[0]
+        while r > target and it < max_iter and np.isfinite(r):
+            K, D = system.force_jacobians(x + h * z.reshape(n, d), z.reshape(n, d), tn)
+            A = _implicit_matrix(M_flat, K, D, h, pinned_dofs)
+            # inexact Newton (Eisenstat–Walker choice 2): loose linear solves far from the
+            # solution, never tighter than needed to reach the target in this iteration
+            eta = min(0.1, 0.9 * (r / r_prev) ** 2)
+            dz = solver.solve(A, -g, rtol=max(solver.rtol, eta, 0.5 * target / r))
+            r_prev = r
+            z_old = z
+            z, g, r, step = _backtrack(G, z, dz, r)
+            hist.append(r)
+            it += 1
+            # a full Newton step that changes nothing at round-off level: the residual is as
+            # small as floating point allows (a failed line search is *not* this)
+            stalled = step == 1.0 and np.linalg.norm(z - z_old) <= 1e-13 * np.linalg.norm(z)
+            if stalled or step < 1e-10:
+                break
         else:
-            G = sp.csr_matrix((np.ones(A.nnz), A.indices, A.indptr), shape=A.shape)
-            G = (G + G.T).tocsr()
-            G.setdiag(0)
-            G.eliminate_zeros()
-            perm, _ = pymetis.nested_dissection(  # A'[i, j] = A[perm[i], perm[j]]
-                adjacency=pymetis.CSRAdjacency(G.indptr, G.indices))
-            perm = np.asarray(perm)
-        self._perm = (key, A.indices.copy(), perm)
-        return perm
+            stalled = False
+        if np.isfinite(r) and r > target and not stalled:
+            raise ConvergenceError(
+                f"implicit Euler: Newton did not converge at t = {t:.6g} in {it} iterations "
+                f"(residual {r:.3e} > {target:.3e}); use a smaller dt or a larger max_iter", hist)
+    if history is not None:
+        history.append(hist)
+    vn = z.reshape(n, d)
+    xn = x + dt * vn  # eq. (12): x_{k+1} = x_k + h v_{k+1}
+    return xn, vn
 
-    def _factor(self, A):
-        """SuperLU factors of ``A`` as a callable ``b -> A^-1 b``."""
-        self.stats["factorizations"] += 1
-        A = sp.csr_matrix(A)
-        perm = self._ordering(A) if A.shape[0] >= 2000 else None
-        if perm is None:
-            lu = spla.splu(sp.csc_matrix(A), permc_spec="COLAMD")
-            self._lu = lu.solve
-        else:
-            lu = spla.splu(sp.csc_matrix(A[perm][:, perm]), permc_spec="NATURAL",
-                           options=dict(SymmetricMode=True))
 
-            def solve(b, lu=lu, perm=perm):
-                z = np.empty_like(b)
-                z[perm] = lu.solve(b[perm])
-                return z
-
-            self._lu = solve
-        self._lu_shape = A.shape
-        return self._lu
-
-    def _cg(self, A, b, x0, precond, maxiter, rtol=None):
-        count = [0]
-
-        def cb(_):
-            count[0] += 1
-
-        # CG alternates triangular solves (scipy's BLAS) with dot products (numpy's BLAS):
-        # memory-bound level-1/2 work that threads do not speed up, while two competing
-        # thread pools on a small machine slow every iteration down several-fold.
-        if self._controller is False:
-            self._controller = _threadpool_controller()
-        with _single_threaded_blas(self._controller):
-            z, info = spla.cg(A, b, x0=x0, rtol=self.rtol if rtol is None else rtol, atol=0.0, maxiter=maxiter,
-                              M=precond, callback=cb)
-        self.stats["cg_iterations"] += count[0]
-        return z, info, count[0]
-
-    def solve(self, A, b, x0=None, rtol=None):
-        """Solve ``A z = b`` (``A`` sparse ``(N, N)``, ``b`` ``(N,)``).
-
-        ``x0`` warm-starts CG; ``rtol`` (iterative kinds) overrides the default tolerance
-        for this solve, e.g. an inexact-Newton forcing term."""
-        self.stats["solves"] += 1
-        if A.shape[0] <= DENSE_MAX:  # tiny systems: LAPACK beats any sparse machinery
-            if self._controller is False:
-                self._controller = _threadpool_controller()
-            with _single_threaded_blas(self._controller):  # threads cost more than they gain
-                return np.linalg.solve(A.toarray(), b)
-        kind = self.resolve(A.shape[0])
-        if kind == "direct":
-            z = self._factor(A)(b)
-        elif kind == "cg":
-            diag = A.diagonal()
-            if np.any(diag <= 0):
-                raise ConvergenceError("solver='cg' needs a positive diagonal; use 'direct'", [])
-            P = spla.LinearOperator(A.shape, matvec=lambda r: r / diag, dtype=A.dtype)
-            z, info, _ = self._cg(A, b, x0, P, 20 * A.shape[0], rtol)
-            if info != 0:
-                raise ConvergenceError(f"conjugate gradients did not converge (info={info}); "
-                                       "use solver='direct'", [])
-        elif self._lu is None or self._lu_shape != A.shape:
-            z = self._factor(A)(b)
-        else:  # lagged factorisation as preconditioner
-            P = spla.LinearOperator(A.shape, matvec=self._lu, dtype=A.dtype)
-            z, info, its = self._cg(A, b, x0, P, 4 * self.refactor_after, rtol)
-            if info != 0:
-                z = self._factor(A)(b)
-            elif its > self.refactor_after:
-                self._factor(A)  # the next solves get a fresh preconditioner
-        return z
+#: The step function of each method of :func:`simulate`.
+MECHANICAL_STEPS = {"explicit_euler": mechanical_explicit_euler_step,
+                    "semi_implicit_euler": mechanical_semi_implicit_euler_step,
+                    "implicit_euler": mechanical_implicit_euler_step}
 
 
 def simulate(
@@ -733,14 +793,13 @@ def simulate(
     ``"implicit_euler"``       ``v_{k+1} = v_k + h M^-1 f(x_{k+1}, v_{k+1}, t_{k+1})``,
                                ``x_{k+1} = x_k + h v_{k+1}`` (slides eq. 12 for ``y = (x, v)``)
 
-    For implicit Euler the unknown is ``v' = v_{k+1}``; the residual
-    ``G(v') = M (v' - v_k) - h f(x_k + h v', v')`` has the Jacobian
-    ``M - h D - h^2 K`` with ``K = df/dx``, ``D = df/dv`` from ``system.force_jacobians``.
-    ``newton="baraff_witkin"`` takes the single linearised step of [BW] Eq. (6),
-    ``(M - h D - h^2 K) dv = h (f_k + h K v_k)`` with ``K, D`` at ``(x_k, v_k)``;
-    ``newton="full"`` starts from that step and iterates Newton until
-    ``|G| <= max(tol |G(v_k)|, atol)`` (``G`` in N·s), solving each linear system only as
-    accurately as the Newton iteration needs (inexact Newton, Eisenstat–Walker).
+    One step of each method is a function of its own (:data:`MECHANICAL_STEPS`):
+    :func:`mechanical_explicit_euler_step`, :func:`mechanical_semi_implicit_euler_step`,
+    :func:`mechanical_implicit_euler_step`. Implicit Euler solves for ``v' = v_{k+1}`` with
+    Newton on ``G(v') = M (v' - v_k) - h f(x_k + h v', v')`` (Jacobian ``M - h D - h^2 K``,
+    ``K = df/dx``, ``D = df/dv`` from ``system.force_jacobians``): ``newton="baraff_witkin"``
+    takes only the linearised first step of [BW] Eq. (6), ``newton="full"`` iterates until
+    ``|G| <= max(tol |G(v_k)|, atol)`` (``G`` in N·s).
 
     Parameters
     ----------
@@ -863,6 +922,17 @@ def simulate(
             raise ValueError(f"system.force must return shape {(n, d)}, got {fo.shape}")
         return fo
 
+    step = MECHANICAL_STEPS[method]  # the scheme, chosen once
+    if method == "implicit_euler":
+        def advance(x, v, v_prev, tk):
+            return step(system, force, x, v, tk, dt, M_flat, pinned_dofs, newton=newton,
+                        tol=tol, atol=atol, max_iter=max_iter, solver=solver,
+                        dv_guess=None if v_prev is None else (v - v_prev).reshape(-1),
+                        history=newton_hist)
+    else:
+        def advance(x, v, v_prev, tk):
+            return step(force, inv_m, x, v, tk, dt)
+
     steps = range(n_steps)
     if progress:
         from tqdm.auto import tqdm
@@ -871,20 +941,7 @@ def simulate(
     for k in steps:
         tk = t0 + k * dt
         with np.errstate(over="ignore", invalid="ignore"):
-            if method == "explicit_euler":
-                a = force(x, v, tk) * inv_m[:, None]
-                xn = x + dt * v  # eq. (4)
-                vn = v + dt * a
-            elif method == "semi_implicit_euler":
-                vn = v + dt * force(x, v, tk) * inv_m[:, None]  # PhysAnimator Eq. (7)
-                xn = x + dt * vn
-            else:
-                vn, hist = _implicit_euler_velocity(
-                    system, force, x, v, tk, dt, M_flat, pinned_dofs, newton, tol, max_iter, solver,
-                    dv_guess=None if v_prev is None else (v - v_prev).reshape(-1), atol=atol)
-                newton_hist.append(hist)
-                vn = vn.reshape(n, d)
-                xn = x + dt * vn
+            xn, vn = advance(x, v, v_prev, tk)
             if project is not None:
                 project(tk + dt, xn, vn)  # kinematic constraints, contacts: in place
             vn[fixed] = 0.0
@@ -917,62 +974,6 @@ def simulate(
         if (k + 1) % save_every == 0:
             X[(k + 1) // save_every], V[(k + 1) // save_every] = x, v
     return SimulationResult(t, X, V, method, dt, newton_hist)
-
-
-def _implicit_euler_velocity(system, force, x, v, tk, h, M_flat, pinned_dofs, newton, tol,
-                             max_iter, solver, dv_guess=None, atol=1e-10):
-    """One implicit Euler step for the velocity; returns ``(v_{k+1} flat, residual history)``.
-
-    ``dv_guess`` (the previous step's velocity change) warm-starts iterative solvers."""
-    n, d = x.shape
-    vk = v.reshape(-1)
-    tn = tk + h
-    # Baraff–Witkin linearised step at (x_k, v_k): (M - hD - h^2 K) dv = h (f_k + h K v_k)
-    K, D = system.force_jacobians(x, v, tk)
-    A = _implicit_matrix(M_flat, K, D, h, pinned_dofs)
-    b = h * (force(x, v, tk).reshape(-1) + h * (K @ vk))
-    b[pinned_dofs] = 0.0
-    # the linearised step is the answer for Baraff–Witkin, only a starting guess for full
-    # Newton (whose iterations correct it): solve it loosely there
-    dv = solver.solve(A, b, x0=dv_guess, rtol=None if newton == "baraff_witkin" else 1e-4)
-    z = vk + dv
-
-    def G(zz):
-        g = M_flat * (zz - vk) - h * force(x + h * zz.reshape(n, d), zz.reshape(n, d), tn).reshape(-1)
-        g[pinned_dofs] = 0.0
-        return g
-
-    g = G(z)
-    hist = [float(np.linalg.norm(G(vk))), float(np.linalg.norm(g))]
-    if newton == "baraff_witkin":
-        return z, hist
-    target = max(tol * hist[0], atol)  # relative to the first residual, absolute floor
-    it = 0
-    r, r_prev = hist[-1], hist[0]
-    while r > target and it < max_iter and np.isfinite(r):
-        K, D = system.force_jacobians(x + h * z.reshape(n, d), z.reshape(n, d), tn)
-        A = _implicit_matrix(M_flat, K, D, h, pinned_dofs)
-        # inexact Newton (Eisenstat–Walker choice 2): loose linear solves far from the
-        # solution, never tighter than needed to reach the target in this iteration
-        eta = min(0.1, 0.9 * (r / r_prev) ** 2)
-        dz = solver.solve(A, -g, rtol=max(solver.rtol, eta, 0.5 * target / r))
-        r_prev = r
-        z_old = z
-        z, g, r, step = _backtrack(G, z, dz, r)
-        hist.append(r)
-        it += 1
-        # a full Newton step that changes nothing at round-off level: the residual is as
-        # small as floating point allows (a failed line search is *not* this)
-        stalled = step == 1.0 and np.linalg.norm(z - z_old) <= 1e-13 * np.linalg.norm(z)
-        if stalled or step < 1e-10:
-            break
-    else:
-        stalled = False
-    if np.isfinite(r) and r > target and not stalled:
-        raise ConvergenceError(
-            f"implicit Euler: Newton did not converge at t = {tk:.6g} in {it} iterations "
-            f"(residual {r:.3e} > {target:.3e}); use a smaller dt or a larger max_iter", hist)
-    return z, hist
 
 
 # ----------------------------------------------------------------------------------------

@@ -26,8 +26,10 @@ import numpy as np
 import scipy.sparse as sp
 
 from physlab import _check
+from physlab.linear_solver import one_blas_thread
 
-__all__ = ["SpringSystem", "hanging_spring", "chain", "cloth_grid", "soft_box", "grid_edges"]
+__all__ = ["SpringSystem", "hanging_spring", "chain", "cloth_grid", "soft_box", "grid_edges",
+           "critical_time_step"]
 
 #: Largest number of particles the scene builders make (fail fast instead of swapping).
 MAX_PARTICLES = 1_000_000
@@ -439,3 +441,31 @@ def soft_box(nx=6, ny=6, size=0.5, k=3000.0, total_mass=1.0, damping=0.1, spring
     kk = np.where(kind == "structural", k, k / 2)
     return SpringSystem(X, edges, k=kk, mass=total_mass / (nx * ny), damping=damping,
                         spring_damping=spring_damping, ground=ground, ground_stiffness=ground_stiffness)
+
+
+def critical_time_step(system):
+    """``2 / ω_max``: the largest stable step of semi-implicit (symplectic) Euler for the
+    linearised, undamped system at rest (``ω_max²`` = largest eigenvalue of ``-M^-1 K`` over
+    the free particles). Explicit Euler has no such step without damping: it gains energy at
+    every ``dt`` (lesson 01). Dense eigenvalues: for lesson-sized systems (≲ 1,000 dofs).
+
+    ``system``: a :class:`SpringSystem` with at most 4,000 unknowns ``n·d``. Returns the
+    step in s."""
+    from scipy.linalg import eigh
+
+    if not isinstance(system, SpringSystem):
+        raise TypeError(f"system must be a physlab.springs.SpringSystem (e.g. chain()), "
+                        f"got {type(system).__name__}")
+    if system.n * system.d > 4000:
+        raise ValueError(f"critical_time_step uses dense eigenvalues; the system has "
+                         f"{system.n * system.d} unknowns (limit 4000): use a smaller system")
+    x, v = system.rest_state()
+    K, _ = system.force_jacobians(x, v)
+    d = system.d
+    free = np.setdiff1d(np.arange(system.n), system.fixed)
+    dofs = (free[:, None] * d + np.arange(d)).ravel()
+    Kf = -K.toarray()[np.ix_(dofs, dofs)]
+    m = np.repeat(system.mass, d)[dofs]
+    with one_blas_thread():
+        w2 = eigh(0.5 * (Kf + Kf.T), np.diag(m), eigvals_only=True)[-1]
+    return float(2.0 / np.sqrt(max(w2, 1e-300)))

@@ -5,8 +5,10 @@ import scipy.sparse as sp
 
 from physlab import springs
 from physlab.integrators import (
-    METHODS, ORDER, ConvergenceError, LinearSolver, SimulationDiverged, convergence_order,
-    finite_difference_jacobian, integrate, newton_solve, simulate, stability_function,
+    MECHANICAL_METHODS, MECHANICAL_STEPS, METHODS, ORDER, STEPS, ConvergenceError, LinearSolver,
+    SimulationDiverged, convergence_order, finite_difference_jacobian, integrate,
+    mechanical_explicit_euler_step, mechanical_implicit_euler_step,
+    mechanical_semi_implicit_euler_step, newton_solve, simulate, stability_function,
 )
 
 
@@ -32,6 +34,99 @@ def test_measured_order_matches_theory(method, problem):
     dts = [0.1, 0.05, 0.025, 0.0125] if ORDER[method] < 4 else [0.2, 0.1, 0.05, 0.025]
     errors = [abs(integrate(f, y0, (0.0, 2.0), dt, method).y[-1, 0] - exact(2.0)) for dt in dts]
     assert convergence_order(dts, errors) == pytest.approx(ORDER[method], abs=0.2)
+
+
+# ---------------------------------------------------------------- one step per scheme
+
+def test_every_method_has_its_step_function():
+    assert list(STEPS) == list(METHODS) and list(MECHANICAL_STEPS) == list(MECHANICAL_METHODS)
+    assert MECHANICAL_STEPS["explicit_euler"] is mechanical_explicit_euler_step
+    assert MECHANICAL_STEPS["semi_implicit_euler"] is mechanical_semi_implicit_euler_step
+    for fn in (*STEPS.values(), *MECHANICAL_STEPS.values()):
+        assert "eq" in fn.__doc__.lower(), fn.__name__  # each cites the equation it implements
+
+
+@pytest.mark.parametrize("method", METHODS)
+@pytest.mark.parametrize("problem", ["oscillator", "riccati"])
+def test_step_function_is_one_step_of_integrate(method, problem):
+    f, y0 = {"oscillator": (oscillator, [1.0, 0.0]), "riccati": (riccati, [1.0])}[problem]
+    t0, h = 0.5, 0.25  # binary fractions: integrate's step t1 - t0 is exactly h
+    r = integrate(f, y0, (t0, t0 + h), h, method, tol=1e-12)
+    history = [] if method in ("implicit_euler", "trapezoidal") else None
+    kw = {} if history is None else {"tol": 1e-12, "history": history}
+    y1 = STEPS[method](f, t0, np.array(y0), h, **kw)
+    np.testing.assert_array_equal(y1, r.y[-1])  # the very same arithmetic
+    if history is not None:
+        assert history == r.newton
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_step_function_order_on_decay(method):
+    """y' = -y, y(0) = 1 marched to t = 1 by hand with the step function: the error at
+    e^-1 falls like dt^order."""
+    f = lambda t, y: -y
+    dts = [0.1, 0.05, 0.025, 0.0125] if ORDER[method] < 4 else [0.2, 0.1, 0.05, 0.025]
+    errors = []
+    for dt in dts:
+        y = np.array([1.0])
+        for k in range(round(1.0 / dt)):
+            y = STEPS[method](f, k * dt, y, dt)
+        errors.append(abs(y[0] - np.exp(-1.0)))
+    assert convergence_order(dts, errors) == pytest.approx(ORDER[method], abs=0.2)
+
+
+def _mechanical_step(method, system, x, v, t, dt, history=None):
+    """One step of ``method`` by its step function, with what simulate precomputes."""
+    n, d = x.shape
+    if method != "implicit_euler":
+        inv_m = np.zeros(n)
+        free = np.setdiff1d(np.arange(n), system.fixed)
+        inv_m[free] = 1.0 / system.mass[free]
+        return MECHANICAL_STEPS[method](system.force, inv_m, x, v, t, dt)
+    pinned = (np.asarray(system.fixed, int)[:, None] * d + np.arange(d)).reshape(-1)
+    return mechanical_implicit_euler_step(system, system.force, x, v, t, dt,
+                                          np.repeat(system.mass, d), pinned, history=history)
+
+
+@pytest.mark.parametrize("method", MECHANICAL_METHODS)
+def test_mechanical_step_function_is_one_step_of_simulate(method):
+    c = springs.chain(6, k=400.0, damping=0.1, spring_damping=0.2)
+    x0, v0 = c.rest_state()
+    x0[1:] += (0.05, -0.1)
+    v0[1:] += 0.3
+    r = simulate(c, x0, v0, 0.01, 1, method)
+    history = []
+    x1, v1 = _mechanical_step(method, c, x0, v0, 0.0, 0.01, history)
+    x1[c.fixed], v1[c.fixed] = x0[c.fixed], 0.0  # simulate pins after the step
+    np.testing.assert_array_equal(x1, r.x[-1])
+    np.testing.assert_array_equal(v1, r.v[-1])
+    if method == "implicit_euler":
+        assert history == r.newton
+
+
+class _UnitOscillator:
+    """x'' = -x for one particle in 1-D (m = 1 kg, k = 1 N/m): exact x = cos t."""
+    mass = np.array([1.0])
+    fixed = np.array([], int)
+
+    def force(self, x, v, t):
+        return -x
+
+    def force_jacobians(self, x, v, t):
+        return sp.csr_matrix(-np.eye(1)), sp.csr_matrix((1, 1))
+
+
+@pytest.mark.parametrize("method", MECHANICAL_METHODS)
+def test_mechanical_step_functions_are_first_order(method):
+    s = _UnitOscillator()
+    dts = [0.02, 0.01, 0.005, 0.0025]
+    errors = []
+    for dt in dts:
+        x, v = np.array([[1.0]]), np.array([[0.0]])
+        for k in range(round(1.0 / dt)):
+            x, v = _mechanical_step(method, s, x, v, k * dt, dt)
+        errors.append(abs(x[0, 0] - np.cos(1.0)))
+    assert convergence_order(dts, errors) == pytest.approx(1.0, abs=0.2)
 
 
 def test_explicit_euler_is_slides_eq3_by_hand():

@@ -5,6 +5,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from physlab import springs
+from physlab.integrators import SimulationDiverged, simulate
 from physlab.springs import SpringSystem
 
 
@@ -129,6 +130,29 @@ def test_builders():
         springs.chain(5, pin="middle")
 
 
+def test_critical_time_step_of_single_spring():
+    s = springs.hanging_spring(k=40.0)  # one free particle of 1 kg: ω = sqrt(k/m)
+    assert springs.critical_time_step(s) == pytest.approx(2 / np.sqrt(40.0))
+
+
+def _run(system, dt, duration, method):
+    """``(result, blew_up_step or None)`` of a run from rest (a blow-up ends it)."""
+    x0, v0 = system.rest_state()
+    try:
+        return simulate(system, x0, v0, dt, max(1, int(round(duration / dt))), method), None
+    except SimulationDiverged as err:
+        return err.result, err.step
+
+
+def test_critical_time_step_predicts_semi_implicit_blow_up():
+    s = springs.chain(12, length=1.0, k=600.0, total_mass=1.0)  # lesson 03's chain
+    dc = springs.critical_time_step(s)
+    _, blew_below = _run(s, 0.9 * dc, 10.0, "semi_implicit_euler")
+    _, blew_above = _run(s, 1.2 * dc, 10.0, "semi_implicit_euler")
+    assert blew_below is None and blew_above is not None
+    assert dc == pytest.approx(0.01189591218784041, rel=1e-9)  # reference number
+
+
 def test_bad_inputs_raise_clear_errors():
     X = np.zeros((3, 2))
     X[:, 0] = [0, 1, 2]
@@ -154,3 +178,5 @@ def test_bad_inputs_raise_clear_errors():
     s = SpringSystem(X, [[0, 1]], k=1.0)
     with pytest.raises(ValueError, match="shape"):
         s.force(np.zeros((2, 2)), np.zeros((2, 2)))
+    with pytest.raises(TypeError, match="system must be a physlab.springs.SpringSystem"):
+        springs.critical_time_step(None)

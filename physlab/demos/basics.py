@@ -11,7 +11,6 @@ the fixed point ``x̄0``, with damping ``-γ v`` and gravity ``-g M``, starting 
 """
 from __future__ import annotations
 
-import contextlib
 import functools
 from dataclasses import dataclass
 
@@ -20,9 +19,11 @@ from matplotlib.figure import Figure
 
 from physlab import _check, springs
 from physlab.integrators import (
-    METHODS, MECHANICAL_METHODS, ORDER, LinearSolver, SimulationDiverged, integrate, simulate,
+    METHODS, MECHANICAL_METHODS, ORDER, SimulationDiverged, integrate, simulate,
     stability_function,
 )
+from physlab.linear_solver import LinearSolver, one_blas_thread
+from physlab.springs import critical_time_step  # re-exported: lesson 03 imports it from here
 from physlab.viz import plots
 
 __all__ = [
@@ -356,25 +357,6 @@ def _check_system(system, name="system"):
                         f"got {type(system).__name__}")
 
 
-@functools.lru_cache(maxsize=1)
-def _blas_controller():
-    """A ``threadpoolctl.ThreadpoolController`` (inspecting the loaded libraries is the
-    expensive part, so it is made once), or None without threadpoolctl."""
-    try:
-        from threadpoolctl import ThreadpoolController
-    except ImportError:
-        return None
-    return ThreadpoolController()
-
-
-def _one_blas_thread():
-    """Context manager: BLAS/LAPACK on one thread. The lesson scenes' matrices have at most a
-    few hundred rows, where threads only cost: on this 2-core machine under load a threaded
-    128×128 ``numpy.linalg.solve`` took 12× longer in total, with single calls up to 0.13 s."""
-    c = _blas_controller()
-    return contextlib.nullcontext() if c is None else c.limit(limits=1, user_api="blas")
-
-
 class _DenseSolver(LinearSolver):
     """Solves the implicit-Euler systems ``(M - hD - h²K) dv = b`` with dense LAPACK
     (``numpy.linalg.solve``): exact, and for the lesson scenes (at most a few hundred
@@ -410,7 +392,7 @@ def run_scene(system, dt=0.005, duration=2.0, method="semi_implicit_euler", newt
     n = max(1, int(round(duration / dt)))
     kw = {"solver": _DenseSolver(), "newton": newton} if method == "implicit_euler" else {}
     try:
-        with _one_blas_thread():
+        with one_blas_thread():  # the scenes' matrices are small: threads only cost
             return simulate(system, x0, v0, dt, n, method, **kw), None
     except SimulationDiverged as err:
         return err.result, err.step
@@ -434,29 +416,6 @@ def _scene_energy(scene, k, damping, dt, duration, method, newton):
 @functools.lru_cache(maxsize=64)
 def _scene_critical_dt(scene, k, damping):
     return critical_time_step(make_scene(scene, k=k, damping=damping))
-
-
-def critical_time_step(system):
-    """``2 / ω_max``: the largest stable step of semi-implicit (symplectic) Euler for the
-    linearised, undamped system at rest (``ω_max²`` = largest eigenvalue of ``-M^-1 K`` over
-    the free particles). Explicit Euler has no such step without damping: it gains energy at
-    every ``dt`` (lesson 01). Dense eigenvalues: for lesson-sized systems (≲ 1,000 dofs)."""
-    from scipy.linalg import eigh
-
-    _check_system(system)
-    if system.n * system.d > 4000:
-        raise ValueError(f"critical_time_step uses dense eigenvalues; the system has "
-                         f"{system.n * system.d} unknowns (limit 4000): use a smaller system")
-    x, v = system.rest_state()
-    K, _ = system.force_jacobians(x, v)
-    d = system.d
-    free = np.setdiff1d(np.arange(system.n), system.fixed)
-    dofs = (free[:, None] * d + np.arange(d)).ravel()
-    Kf = -K.toarray()[np.ix_(dofs, dofs)]
-    m = np.repeat(system.mass, d)[dofs]
-    with _one_blas_thread():
-        w2 = eigh(0.5 * (Kf + Kf.T), np.diag(m), eigvals_only=True)[-1]
-    return float(2.0 / np.sqrt(max(w2, 1e-300)))
 
 
 def energy_comparison(system, dt=0.005, duration=2.0, methods=MECHANICAL_METHODS, runs=None):

@@ -87,17 +87,12 @@ def test_newton_demo_residuals_fall_quadratically():
     assert len(res) <= 8
 
 
-def test_critical_time_step_of_single_spring():
-    s = basics.make_scene("hanging", k=40.0)  # one free particle of 1 kg: ω = sqrt(k/m)
-    assert basics.critical_time_step(s) == pytest.approx(2 / np.sqrt(40.0))
+def test_critical_time_step_is_re_exported_for_lesson_03():
+    """The function lives in physlab.springs (tests/test_springs.py); lesson 03 imports it
+    from here."""
+    from physlab import springs
 
-
-def test_critical_time_step_predicts_semi_implicit_blow_up():
-    s = basics.make_scene("chain")
-    dc = basics.critical_time_step(s)
-    _, blew_below = basics.run_scene(s, 0.9 * dc, 10.0, "semi_implicit_euler")
-    _, blew_above = basics.run_scene(s, 1.2 * dc, 10.0, "semi_implicit_euler")
-    assert blew_below is None and blew_above is not None
+    assert basics.critical_time_step is springs.critical_time_step
 
 
 def test_make_scene_validates():
@@ -133,7 +128,6 @@ def test_make_scene_validates():
      r"duration \(s\) must be finite"),
     (lambda: basics.run_scene(basics.make_scene(), method="rk4"), ValueError, "unknown method 'rk4'"),
     (lambda: basics.run_scene(basics.make_scene(), newton="quasi"), ValueError, "unknown newton 'quasi'"),
-    (lambda: basics.critical_time_step(None), TypeError, "system must be a physlab.springs.SpringSystem"),
     (lambda: basics.energy_comparison(basics.make_scene(), methods=("heun",)), ValueError,
      "unknown method 'heun'"),
     (lambda: basics.mass_spring_demo(dt=-0.004), ValueError, r"dt \(s\) must be > 0"),
