@@ -52,8 +52,12 @@ Columns (:mod:`physlab.motion.metrics`):
 * seconds per clip: wall time of one :class:`~physlab.motion.sampling.Generator` call
   (``steps`` DDIM steps, CFG as a batch of 2); 0 for the real clips.
 
-FID, R-precision and MM Dist need a trained motion/text feature extractor (TMR / the
-HumanML3D evaluator), which physlab does not have; they are left out.
+With the shipped text–motion evaluator (:mod:`~physlab.motion.evaluator`, TMR-style,
+trained here on the training takes; ``--no-evaluator`` skips it): FID of each row's clips
+against the *other* held-out windows (the real row's FID is the small-sample floor),
+R-precision top-3 in batches of 32 (duplicate texts merged; chance printed under the
+table), MM-Dist and Diversity (Guo et al. 2022's definitions), all in the evaluator's unit-
+sphere embedding, so not comparable with HumanML3D numbers.
 
 Usage::
 
@@ -105,6 +109,7 @@ from .metrics import (
 
 __all__ = [
     "COLUMNS",
+    "EVALUATOR_COLUMNS",
     "MIN_T_R",
     "GUIDANCE_VARIANTS",
     "ROW_NAMES",
@@ -151,6 +156,16 @@ COLUMNS = {
     "boundary_step_ratio": "edge step ratio ↓",
     "seconds_per_clip": "s / clip",
 }
+#: Columns of the shipped text–motion evaluator (:mod:`~physlab.motion.evaluator`), only
+#: when :func:`evaluate` has one.
+EVALUATOR_COLUMNS = {
+    "fid": "FID ↓",
+    "r_precision_top3": "R-prec. top-3 ↑",
+    "mm_dist": "MM-Dist ↓",
+    "diversity": "Diversity →",
+}
+#: Fewest windows the evaluator's columns are computed for (R-precision top-3 ranks >= 3).
+MIN_EVALUATOR_WINDOWS = 3
 #: Shortest trajectory drawn for a test condition (frames), as in training.
 MIN_T_R = 5
 WINDOW_LENGTH = 40
@@ -172,7 +187,9 @@ def held_out_windows(windows=64, data_root=None):
     Returns
     -------
     dict: ``joints`` (n, 40, 22, 3) float64 canonical windows (m), ``text`` list of n str,
-    ``clip_id`` list of n str, ``start`` (n,) int, ``n_available`` int.
+    ``clip_id`` list of n str, ``start`` (n,) int, ``reference_joints`` (m, 40, 22, 3) the
+    other held-out windows (FID's real reference; the chosen ones if fewer than 2 remain),
+    ``n_available`` int.
     """
     n = _check_windows(windows)
     ids = [Path(r["file"]).stem for r in read_labels(data_root) if r["take"] in TEST_TAKES]
@@ -184,8 +201,10 @@ def held_out_windows(windows=64, data_root=None):
                       f"{n}")
         n = M
     idx = np.round(np.linspace(0, M - 1, n)).astype(int)                   # distinct, n <= M
+    rest = np.setdiff1d(np.arange(M), idx)
     return {"joints": win.joints[idx], "text": [win.text[i] for i in idx],
             "clip_id": [win.clip_id[i] for i in idx], "start": win.start[idx],
+            "reference_joints": win.joints[rest if len(rest) >= 2 else idx],
             "n_available": M}
 
 
@@ -301,9 +320,33 @@ def _sample(gen, data, conds, controlled, steps, guidance, seed, progress, label
     return np.stack(out), total / len(conds)
 
 
+def _text_motion_metrics(evaluator, data, seed):
+    """``joints (n, 40, 22, 3) -> dict`` of the evaluator columns for ``data``'s texts (an
+    empty dict without an evaluator)."""
+    if evaluator is None:
+        return lambda x: {}
+    keys = (*EVALUATOR_COLUMNS, "r_precision_chance_top3")
+    if len(data["joints"]) < MIN_EVALUATOR_WINDOWS:
+        warnings.warn(f"the text-motion evaluator's columns (FID, R-precision top-3, ...) need "
+                      f">= {MIN_EVALUATOR_WINDOWS} windows, got {len(data['joints'])}: left "
+                      f"empty")
+        return lambda x: dict.fromkeys(keys, float("nan"))
+    from .evaluator import DEFAULT_EVALUATOR, TextMotionEvaluator, evaluate_embeddings
+
+    ev = TextMotionEvaluator.from_checkpoint(DEFAULT_EVALUATOR if evaluator == "default"
+                                             else evaluator)
+    ref = ev.encode_motion(data["reference_joints"])
+    temb = ev.encode_text(data["text"])
+
+    def text_motion(x):
+        r = evaluate_embeddings(ref, ev.encode_motion(x), temb, texts=data["text"], seed=seed)
+        return {k: float(r[k]) for k in keys}
+    return text_motion
+
+
 def evaluate(control, single_controlnet=None, windows=64, steps=50, guidance=2.5, seed=0,
              out=None, progress=True, data_root=None, body_constraints=True,
-             control_guidance=1.0, guidance_variants=False):
+             control_guidance=1.0, guidance_variants=False, evaluator="default"):
     """Evaluate a control checkpoint on held-out Bandai-Namco windows (module docstring).
 
     Keyword names match the CLI flags.
@@ -325,6 +368,9 @@ def evaluate(control, single_controlnet=None, windows=64, steps=50, guidance=2.5
     body_constraints : bool, the generator's rigid-bone / floor projection
         (:func:`~physlab.motion.body.constrain_body`); False measures the networks' raw
         output.
+    evaluator : ``"default"`` (the shipped :data:`~physlab.motion.evaluator.
+        DEFAULT_EVALUATOR`), a path of a text–motion evaluator checkpoint, or None (no
+        FID / R-precision / MM-Dist / Diversity columns).
     guidance_variants : bool, add the rows of :data:`GUIDANCE_VARIANTS` for the
         ``--control`` checkpoint (Table A3's analogue: per-step guidance through the network,
         first-order and L-BFGS; ~5-10 s per clip on one thread).
@@ -332,7 +378,8 @@ def evaluate(control, single_controlnet=None, windows=64, steps=50, guidance=2.5
     Returns
     -------
     dict ``{row name: {column key: float, "n_clips": int}}`` in :data:`ROW_NAMES` order;
-    column keys are those of :data:`COLUMNS` (m for the errors, s for the time).
+    column keys are those of :data:`COLUMNS` (m for the errors, s for the time) and, with an
+    evaluator, of :data:`EVALUATOR_COLUMNS` plus ``r_precision_chance_top3``.
     """
     n = _check_windows(windows)
     if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps < 1:
@@ -355,10 +402,15 @@ def evaluate(control, single_controlnet=None, windows=64, steps=50, guidance=2.5
                          f"{control_guidance!r}")
     kw = {"steps": int(steps), "seed": int(seed), "progress": progress,
           "body_constraints": bool(body_constraints)}
-    rows = {"real clips": clip_metrics(data["joints"], conds)}
+    text_motion = _text_motion_metrics(evaluator, data, seed)
+
+    def metrics(x, s=0.0):
+        return {**clip_metrics(x, conds, s), **text_motion(x)}
+
+    rows = {"real clips": metrics(data["joints"])}
     x, s = _sample(gens["keypose + trajectory"], data, conds, False, label="text only",
                    guidance=float(guidance), **kw)
-    rows["text only"] = clip_metrics(x, conds, s)
+    rows["text only"] = metrics(x, s)
     if not isinstance(guidance_variants, (bool, np.bool_)):
         raise TypeError(f"guidance_variants must be True or False, got {guidance_variants!r}")
     for name, gen in gens.items():
@@ -369,7 +421,7 @@ def evaluate(control, single_controlnet=None, windows=64, steps=50, guidance=2.5
             label = name + suffix
             x, s = _sample(gen, data, conds, True, label=label, options=options,
                            guidance=float(control_guidance), **kw)
-            rows[label] = clip_metrics(x, conds, s)
+            rows[label] = metrics(x, s)
 
     if out is not None:
         out = Path(out)
@@ -379,7 +431,9 @@ def evaluate(control, single_controlnet=None, windows=64, steps=50, guidance=2.5
                   "guidance": float(guidance), "control_guidance": float(control_guidance),
                   "seed": int(seed), "min_t_r": MIN_T_R,
                   "test_takes": list(TEST_TAKES), "body_constraints": bool(body_constraints),
-                  "guidance_variants": bool(guidance_variants)}
+                  "guidance_variants": bool(guidance_variants),
+                  "evaluator": None if evaluator is None else str(evaluator),
+                  "fid_reference_windows": len(data["reference_joints"])}
         atomic_write_text(out / "table.md", format_table(rows) + "\n")
         atomic_write_text(out / "rows.json", json.dumps(
             {"rows": rows, "config": config, "attribution": BANDAI_NAMCO_ATTRIBUTION},
@@ -390,8 +444,9 @@ def evaluate(control, single_controlnet=None, windows=64, steps=50, guidance=2.5
 def format_table(rows):
     """Markdown table of :func:`evaluate`'s rows (errors in m, time in s; one column per key
     of :data:`COLUMNS` that the rows have) with the data attribution line."""
-    keys = [k for k in COLUMNS if rows and all(k in r for r in rows.values())]
-    head = ["method", *(COLUMNS[k] for k in keys)]
+    names = {**COLUMNS, **EVALUATOR_COLUMNS}
+    keys = [k for k in names if rows and all(k in r for r in rows.values())]
+    head = ["method", *(names[k] for k in keys)]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for name, r in rows.items():
         cells = ["—" if (k == "seconds_per_clip" and name == "real clips")
@@ -402,6 +457,10 @@ def format_table(rows):
     lines += ["", (f"{n} held-out windows (take {', '.join(TEST_TAKES)}), one Cross condition "
               f"each; AUJ relative to PJ_GT = {HUMANML3D_GT_PEAK_JERK:.4f} m/frame³; "
               f"edge step ratio: — when no clip has a partial trajectory."),
+              *([f"Text–motion evaluator: FID against the other held-out windows, R-precision "
+                 f"in batches of 32 with duplicate texts merged (chance top-3 = "
+                 f"{next(iter(rows.values()))['r_precision_chance_top3']:.3f})."]
+                if "fid" in keys else []),
               f"Data: {BANDAI_NAMCO_ATTRIBUTION}"]
     return "\n".join(lines)
 
@@ -439,8 +498,8 @@ def motion_statistics(joints, fps=20.0):
 
 def text_adherence(control, contents=ADHERENCE_CONTENTS, seeds=4, steps=50, guidance=2.5,
                    progress=True, data_root=None):
-    """Does the text-only generator do what the action word says? (A stand-in for the
-    paper's R-precision, which needs a trained motion-text evaluator that physlab lacks.)
+    """Does the text-only generator do what the action word says? (Next to the evaluator's
+    R-precision, this says *what* differs: travel, speed, hand height.)
 
     For each content, ``seeds`` text-only clips of ``action_text(content)`` are compared with
     the windows of all Bandai-Namco clips of that content (both takes: the reference says what
@@ -539,6 +598,11 @@ def _parser():
                    help="folder of BVH clips with a labels.csv in the Bandai-Namco format "
                         "(default: ../shared/data/mocap/bandai_namco); its take-002 clips "
                         "are evaluated")
+    p.add_argument("--evaluator", default="default",
+                   help="text-motion evaluator checkpoint for FID / R-precision / MM-Dist / "
+                        "Diversity (default: the shipped data/motion/text_motion_evaluator.pt)")
+    p.add_argument("--no-evaluator", action="store_true",
+                   help="leave out the evaluator's columns")
     p.add_argument("--guidance-variants", action="store_true",
                    help="add per-step guidance rows through the network, first-order and "
                         "L-BFGS (Table A3; ~5-10 s per clip)")
@@ -562,7 +626,8 @@ def main(argv=None):
                     seed=args.seed, out=args.out, progress=not args.no_progress,
                     data_root=args.data_root,
                     body_constraints=not args.no_body_constraints,
-                    guidance_variants=args.guidance_variants)
+                    guidance_variants=args.guidance_variants,
+                    evaluator=None if args.no_evaluator else args.evaluator)
     adherence = None
     if args.adherence:
         adherence = text_adherence(args.control, seeds=args.adherence_seeds,

@@ -121,6 +121,7 @@ __all__ = [
     "prepare_data",
     "save_checkpoint",
     "train",
+    "warmup_cosine_lr",
 ]
 
 #: Noise schedules by name. "mld": MLD's (Chen et al. 2023) scaled-linear schedule
@@ -369,7 +370,10 @@ def _split_kwargs(kwargs):
     return tk, mk
 
 
-def _lr(cfg, step):
+def warmup_cosine_lr(cfg, step):
+    """Learning rate of optimiser step ``step``: linear warm-up to ``cfg.lr`` over
+    ``cfg.warmup`` steps, then cosine decay to ``cfg.min_lr`` at ``cfg.steps`` (any config
+    with these four fields; also the evaluator's)."""
     if step < cfg.warmup:
         return cfg.lr * (step + 1) / cfg.warmup
     frac = (step - cfg.warmup) / max(1, cfg.steps - cfg.warmup)
@@ -515,7 +519,7 @@ def train(**kwargs):
     try:
         while step < cfg.steps:
             for group in opt.param_groups:
-                group["lr"] = _lr(cfg, step)
+                group["lr"] = warmup_cosine_lr(cfg, step)
             idx = torch.randint(N, (B,), generator=g)                            # (B,)
             x0 = x0_all[idx]                                                     # (B, T, D)
             a = text_emb[text_idx[idx]]                                          # (B, 384)

@@ -17,6 +17,7 @@ from physlab.motion.evaluate import (
     eval_conditions,
     evaluate,
     format_table,
+    EVALUATOR_COLUMNS,
     GUIDANCE_VARIANTS,
     held_out_windows,
     main,
@@ -53,9 +54,17 @@ def rows(ckpts):
 def test_all_rows_with_finite_numbers(rows):
     assert tuple(rows) == ROW_NAMES
     for name, r in rows.items():
-        assert set(r) == set(COLUMNS) | {"n_clips"}, name
+        assert set(r) == set(COLUMNS) | set(EVALUATOR_COLUMNS) | {"n_clips",
+                                                                 "r_precision_chance_top3"}, name
         assert r["n_clips"] == 3
         assert all(math.isfinite(r[k]) and r[k] >= 0 for k in COLUMNS), (name, r)
+        assert all(math.isfinite(r[k]) and r[k] >= 0 for k in EVALUATOR_COLUMNS), (name, r)
+
+
+def test_evaluator_columns_are_optional(ckpts):
+    res = evaluate(ckpts["control"], evaluator=None, **FAST)
+    assert all(set(r) == set(COLUMNS) | {"n_clips"} for r in res.values())
+    assert "FID" not in format_table(res)
 
 
 def test_real_clips_have_zero_control_error(rows):
@@ -132,7 +141,7 @@ def test_format_table_has_rows_and_attribution(rows):
     assert all(f"| {name} |" in t for name in ROW_NAMES)
     assert BANDAI_NAMCO_ATTRIBUTION in t
     table = [line for line in t.splitlines() if line.startswith("|")]
-    assert {line.count("|") for line in table} == {len(COLUMNS) + 2}   # one cell per header
+    assert {line.count("|") for line in table} == {len(COLUMNS) + len(EVALUATOR_COLUMNS) + 2}
 
 
 def test_guidance_variant_rows(ckpts):
@@ -149,13 +158,13 @@ def test_guidance_variant_rows(ckpts):
 
 def test_cli_writes_table_and_rows(ckpts, tmp_path, capsys):
     out = tmp_path / "eval"
-    res = main(["--control", str(ckpts["control"]), "--windows", "2", "--steps", "1",
+    res = main(["--control", str(ckpts["control"]), "--windows", "3", "--steps", "1",
                 "--out", str(out), "--no-progress"])
     printed = capsys.readouterr().out
     assert BANDAI_NAMCO_ATTRIBUTION in printed and "| keypose + trajectory |" in printed
     assert (out / "table.md").read_text().startswith("| method |")
     saved = json.loads((out / "rows.json").read_text())
-    assert saved["rows"] == res and saved["config"]["windows"] == 2
+    assert saved["rows"] == res and saved["config"]["windows"] == 3
     assert saved["attribution"] == BANDAI_NAMCO_ATTRIBUTION
     assert not list(out.glob(".*"))                              # no temp files left
 
