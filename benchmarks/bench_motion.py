@@ -100,13 +100,9 @@ def main(argv=None):
         path = control["path"] if args.quick else (args.checkpoint or DEFAULT_CHECKPOINT)
         gen = Generator.from_checkpoint(path)
         text = gen.text_cache.texts[0]
-        keypose = np.zeros((22, 3))
-        keypose[:, 1] = np.linspace(0.0, 1.6, 22)
-        traj = {"pelvis": np.c_[np.zeros(10), np.full(10, 0.9), np.linspace(0, 0.5, 10)]}
-        if not args.quick:                       # a real condition: a held-out-like walk
-            from physlab.demos.motion_diffusion import walk_window
-            w = walk_window()
-            keypose, traj = w[-1], {"pelvis": w[20:, 0], "left_wrist": w[20:, 20]}
+        from physlab.demos.motion_diffusion import walk_window
+        w, _ = walk_window()                     # a real walk (shipped), (40, 22, 3) m
+        keypose, traj = w[-1], {"pelvis": w[20:, 0], "left_wrist": w[20:, 20]}
         steps = 2 if args.quick else 50
         cfg = gen.scheduler.config   # every training timestep the spacing allows (999 with MLD's offset)
         ddpm_steps = 4 if args.quick else cfg.num_train_timesteps - cfg.steps_offset
