@@ -305,7 +305,7 @@ def _load(path, flag, need_control=True):
 
 
 def _sample(gen, data, conds, controlled, steps, guidance, seed, progress, label,
-            options=None, body_constraints=True):
+            options=None, body_constraints=True, foot_lock=True, frequencies=None):
     """Generate one clip per window; ``options`` are the guidance options of a controlled
     row (:data:`GUIDED`, :data:`UNGUIDED` or a :data:`GUIDANCE_VARIANTS` value)."""
     from tqdm.auto import tqdm
@@ -315,7 +315,8 @@ def _sample(gen, data, conds, controlled, steps, guidance, seed, progress, label
         kw = ({**conds[i].generator_kwargs(), **(options or UNGUIDED)} if controlled else {})
         tic = time.perf_counter()
         out.append(gen(data["text"][i], seed=seed + i, guidance_scale=guidance, steps=steps,
-                       body_constraints=body_constraints, **kw))           # (40, 22, 3)
+                       body_constraints=body_constraints, foot_lock=foot_lock,
+                       frequencies=frequencies, **kw))                 # (40, 22, 3)
         total += time.perf_counter() - tic
     return np.stack(out), total / len(conds)
 
@@ -346,7 +347,8 @@ def _text_motion_metrics(evaluator, data, seed):
 
 def evaluate(control, single_controlnet=None, windows=64, steps=50, guidance=2.5, seed=0,
              out=None, progress=True, data_root=None, body_constraints=True,
-             control_guidance=1.0, guidance_variants=False, evaluator="default"):
+             control_guidance=1.0, guidance_variants=False, evaluator="default",
+             foot_lock=True, frequencies=None):
     """Evaluate a control checkpoint on held-out Bandai-Namco windows (module docstring).
 
     Keyword names match the CLI flags.
@@ -368,6 +370,10 @@ def evaluate(control, single_controlnet=None, windows=64, steps=50, guidance=2.5
     body_constraints : bool, the generator's rigid-bone / floor projection
         (:func:`~physlab.motion.body.constrain_body`); False measures the networks' raw
         output.
+    foot_lock : bool, the generator's foot-contact lock
+        (:func:`~physlab.motion.body.lock_feet`, part of the body constraints).
+    frequencies : None (the generator's defaults) or the DCT frequencies x̂₀ keeps, for
+        every row (:meth:`~physlab.motion.sampling.Generator.__call__`).
     evaluator : ``"default"`` (the shipped :data:`~physlab.motion.evaluator.
         DEFAULT_EVALUATOR`), a path of a text–motion evaluator checkpoint, or None (no
         FID / R-precision / MM-Dist / Diversity columns).
@@ -396,12 +402,15 @@ def evaluate(control, single_controlnet=None, windows=64, steps=50, guidance=2.5
     conds = eval_conditions(data["joints"], seed=seed)
     if not isinstance(body_constraints, (bool, np.bool_)):
         raise TypeError(f"body_constraints must be True or False, got {body_constraints!r}")
+    if not isinstance(foot_lock, (bool, np.bool_)):
+        raise TypeError(f"foot_lock must be True or False, got {foot_lock!r}")
     if (isinstance(control_guidance, bool) or not isinstance(control_guidance, (int, float))
             or not math.isfinite(control_guidance) or control_guidance < 0):
         raise ValueError(f"control_guidance must be a finite number >= 0, got "
                          f"{control_guidance!r}")
     kw = {"steps": int(steps), "seed": int(seed), "progress": progress,
-          "body_constraints": bool(body_constraints)}
+          "body_constraints": bool(body_constraints), "foot_lock": bool(foot_lock),
+          "frequencies": frequencies}
     text_motion = _text_motion_metrics(evaluator, data, seed)
 
     def metrics(x, s=0.0):
@@ -431,6 +440,7 @@ def evaluate(control, single_controlnet=None, windows=64, steps=50, guidance=2.5
                   "guidance": float(guidance), "control_guidance": float(control_guidance),
                   "seed": int(seed), "min_t_r": MIN_T_R,
                   "test_takes": list(TEST_TAKES), "body_constraints": bool(body_constraints),
+                  "foot_lock": bool(foot_lock), "frequencies": frequencies,
                   "guidance_variants": bool(guidance_variants),
                   "evaluator": None if evaluator is None else str(evaluator),
                   "fid_reference_windows": len(data["reference_joints"])}
@@ -472,17 +482,18 @@ def format_table(rows):
 ADHERENCE_CONTENTS = ("walk", "run", "walk-back", "walk-left", "bow", "kick",
                       "raise-up-both-hands", "wave-right-hand")
 #: Columns of :func:`motion_statistics`.
-STATISTICS = ("forward_m", "left_m", "speed_m_s", "hand_above_head_m")
+STATISTICS = ("forward_m", "left_m", "speed_m_s", "hand_above_head_m", "wrist_travel_m")
 
 
 def motion_statistics(joints, fps=20.0):
     """Simple per-clip numbers an action word predicts, for canonical clips (frame 0 pelvis
     at the origin facing ``+z``).
 
-    Returns a ``(n, 4)`` float array, columns :data:`STATISTICS`: forward travel of the pelvis
+    Returns a ``(n, 5)`` float array, columns :data:`STATISTICS`: forward travel of the pelvis
     (z of the last frame, m), travel to the left (x, m), mean horizontal pelvis speed along
-    its path (m/s), and how far the higher wrist rises above the head at its highest
-    (m; negative = never above the head)."""
+    its path (m/s), how far the higher wrist rises above the head at its highest
+    (m; negative = never above the head), and the wrist travel: the mean per-frame step of
+    the busier wrist relative to the pelvis (m/frame; a wave moves it, a walk barely)."""
     x = np.asarray(joints, dtype=float)
     if x.ndim == 3:
         x = x[None]
@@ -493,7 +504,9 @@ def motion_statistics(joints, fps=20.0):
     path = np.linalg.norm(np.diff(p[:, :, [0, 2]], axis=1), axis=-1).sum(1)
     duration = (x.shape[1] - 1) / float(fps)
     hand = (x[:, :, [20, 21], 1].max(axis=2) - x[:, :, 15, 1]).max(axis=1)
-    return np.stack([d[:, 2], d[:, 0], path / duration, hand], axis=1)
+    rel = x[:, :, [20, 21]] - p[:, :, None]                                # (n, N, 2, 3)
+    wrist = np.linalg.norm(np.diff(rel, axis=1), axis=-1).mean(axis=1).max(axis=1)
+    return np.stack([d[:, 2], d[:, 0], path / duration, hand, wrist], axis=1)
 
 
 def text_adherence(control, contents=ADHERENCE_CONTENTS, seeds=4, steps=50, guidance=2.5,
@@ -554,10 +567,12 @@ def text_adherence(control, contents=ADHERENCE_CONTENTS, seeds=4, steps=50, guid
 def format_adherence(res):
     """Markdown table of :func:`text_adherence` (real mean / generated mean per statistic)."""
     head = ["action text", "real windows", "forward (m) real / gen", "left (m) real / gen",
-            "speed (m/s) real / gen", "hand above head (m) real / gen", "recognised"]
+            "speed (m/s) real / gen", "hand above head (m) real / gen",
+            "wrist travel (m/frame) real / gen", "recognised"]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for c, r in res["per_content"].items():
-        cells = [f"{r['real'][k]:+.2f} / {r['generated'][k]:+.2f}" for k in STATISTICS]
+        cells = [f"{r['real'][k]:+.2f} / {r['generated'][k]:+.2f}" for k in STATISTICS[:-1]]
+        cells.append(f"{r['real'][STATISTICS[-1]]:.3f} / {r['generated'][STATISTICS[-1]]:.3f}")
         ok = sum(x == c for x in r["recognised_as"])
         lines.append("| " + " | ".join([r["text"], str(r["n_real"]), *cells,
                                         f"{ok}/{len(r['recognised_as'])}"]) + " |")
@@ -613,6 +628,11 @@ def _parser():
     p.add_argument("--no-progress", action="store_true", help="no progress bars")
     p.add_argument("--no-body-constraints", action="store_true",
                    help="measure the networks' raw joints (no rigid-bone / floor projection)")
+    p.add_argument("--no-foot-lock", action="store_true",
+                   help="body constraints without the foot-contact lock")
+    p.add_argument("--frequencies", type=int, default=None,
+                   help="DCT frequencies x̂₀ keeps in every row (default: the generator's, "
+                        "10; the checkpoint was trained with 16)")
     return p
 
 
@@ -626,6 +646,7 @@ def main(argv=None):
                     seed=args.seed, out=args.out, progress=not args.no_progress,
                     data_root=args.data_root,
                     body_constraints=not args.no_body_constraints,
+                    foot_lock=not args.no_foot_lock, frequencies=args.frequencies,
                     guidance_variants=args.guidance_variants,
                     evaluator=None if args.no_evaluator else args.evaluator)
     adherence = None

@@ -41,6 +41,7 @@ layers) ~0.17 s text only / ~0.55 s controlled.
 """
 from __future__ import annotations
 
+import contextlib
 import functools
 import math
 from pathlib import Path
@@ -50,10 +51,10 @@ import torch
 
 from .dataset import TRAJECTORY_JOINT_NAMES, TRAJECTORY_JOINTS
 from .diffusion import classifier_free_guidance
-from .body import clip_bone_lengths, constrain_body
+from .body import LEG_CHAINS, clip_bone_lengths, constrain_body
 from .features import decode_motion
-from .model import ControlledDenoiser, features_to_joints_torch
-from .skeleton import JOINT_NAMES
+from .model import ControlledDenoiser, features_to_joints_torch, low_pass_matrix
+from .skeleton import JOINT_NAMES, PARENTS
 
 __all__ = ["DEFAULT_CHECKPOINT", "N_FRAMES", "Generator", "build_condition", "generate",
            "load_generator"]
@@ -69,6 +70,9 @@ KEYPOSE_AT = ("first", "last")
 #: Largest classifier-free guidance scale accepted (the paper uses 7.5).
 MAX_GUIDANCE = 100.0
 METHODS = ("ddim", "ddpm")
+#: The toe joints (left, right) whose trajectory frames :func:`~physlab.motion.body.lock_feet`
+#: must not move.
+FOOT_TOES = tuple(chain[3] for chain in LEG_CHAINS)
 
 
 def _train_commands(path):
@@ -100,6 +104,27 @@ def _finite_array(x, name, shape=None):
 TEXT_GUIDANCE = 2.5
 #: Default text guidance scale with a keypose or trajectories (:meth:`Generator.__call__`).
 CONTROL_TEXT_GUIDANCE = 1.0
+#: DCT frequencies kept in x̂₀ at every sampling step of a smooth-basis model
+#: (``DenoiserConfig.smooth_basis`` = 16 when trained), text only / under control
+#: (:meth:`Generator.__call__` ``frequencies``). The model was trained to predict 16, but
+#: its highest frequencies come out as jitter, not motion: on 16 held-out windows
+#: text-only clips at 16 / 12 / 10 / 8 frequencies had jerk AUJ 1.72 / 0.38 / 0.30 / 0.48,
+#: PJ 0.113 / 0.071 / 0.047 / 0.061 and foot skating 0.29 / 0.21 / 0.17 / 0.14 (real clips
+#: 0.19, 0.046, 0.16); under control (networks only, 16 / 12 / 10) AUJ 0.51 / 0.29 / 0.30 at
+#: the same trajectory error (0.094 / 0.095 / 0.096 m), and with the default guidance AUJ
+#: 1.08 / 1.05 / 0.66, condition-edge step ratio 4.9 / 4.0 / 2.4, evaluator FID unchanged
+#: within noise. ``python -m physlab.motion.evaluate --frequencies K``.
+TEXT_FREQUENCIES = 10
+CONTROL_FREQUENCIES = 10
+#: Weight λ_b of the bone-length term of the x̂₀ guidance (:meth:`Generator._guide`): the
+#: optimisation keeps every bone at its keypose (or pre-guidance median) length, so it
+#: re-poses the body instead of stretching a limb that the rigid-bone projection then pulls
+#: off its target. On 64 held-out windows with the default guidance, λ_b = 0 / 3 / 10 / 30 /
+#: 100: trajectory error 0.033 / 0.013 / 0.013 / 0.013 / 0.014 m, AUJ 0.49 / 0.18 / 0.18 /
+#: 0.19 / 0.20, PJ 0.097 / 0.054 / 0.043 / 0.043 / 0.042 (real clips 0.26, 0.047), foot
+#: skating 0.21 / 0.22 / 0.23 / 0.24 / 0.26, largest condition-edge step ratio 3.2 / 3.2 /
+#: 3.1 / 3.3 / 3.6.
+GUIDANCE_BONES = 10.0
 
 #: Where the per-step inference guidance optimises (:meth:`Generator.__call__`).
 GUIDANCE_SPACES = ("x0", "network")
@@ -252,6 +277,21 @@ class Generator:
         """True if the checkpoint accepts keypose / trajectory conditions."""
         return isinstance(self.model, ControlledDenoiser)
 
+    @contextlib.contextmanager
+    def _frequencies(self, k):
+        """Inside the block the denoiser's output basis keeps ``k`` DCT frequencies (None:
+        unchanged)."""
+        base = self.denoiser
+        if k is None or base.low_pass is None or k == self.config.smooth_basis:
+            yield
+            return
+        old = base.low_pass
+        base.low_pass = low_pass_matrix(self.config.n_frames, int(k)).to(old)
+        try:
+            yield
+        finally:
+            base.low_pass = old
+
     @property
     def denoiser(self):
         """The text-only denoiser (the frozen base of a control model)."""
@@ -295,10 +335,13 @@ class Generator:
     def _guide(self, out, x, t, cond, joints_target, iters, proximity, optimizer="lbfgs"):
         """Inference guidance (Sketch2Anim supp. C, Eq. (15); loss-guided diffusion): ``iters``
         L-BFGS iterations on the clean-motion estimate x̂₀ of this step, minimising
-        ``G(x) = L_tr(R(x)) + L_key(R(x)) + proximity · mean_j ‖R(x)_j − R(x̂₀)_j‖²`` (Eqs. (6),
-        (8) on the decoded joints, metres²; the last term, the mean squared displacement of the
-        joints, keeps the motion near the network's whatever the feature scaling), then
-        the network output is rewritten for the corrected x̂₀ so the sampler's step uses it.
+        ``G(x) = L_tr(R(x)) + L_key(R(x)) + proximity · mean_j ‖R(x)_j − R(x̂₀)_j‖²
+        + λ_b · mean_{t,j} (‖R(x)_{t,j} − R(x)_{t,p(j)}‖ − L_j)²`` (Eqs. (6), (8) on the decoded
+        joints, metres²; the proximity term, the mean squared displacement of the joints, keeps
+        the motion near the network's whatever the feature scaling; the bone term,
+        :data:`GUIDANCE_BONES`, keeps each bone at the keypose's length ``L_j``, or at its
+        median over the pre-guidance clip), then the network output is rewritten for the
+        corrected x̂₀ so the sampler's step uses it.
 
         The paper differentiates G through the network w.r.t. z_t and applies it only to its
         2D trajectories; physlab differentiates w.r.t. x̂₀ (no backpropagation through the
@@ -326,6 +369,14 @@ class Generator:
 
         ref_joints = decode(ref)
         has_key = bool(cond["keypose_mask"].any())
+        child = torch.arange(1, len(PARENTS))
+        parent = torch.as_tensor(np.array(PARENTS[1:]))
+
+        def bones(j):                                                        # (1, N, 21) m
+            return (j[..., child, :] - j[..., parent, :]).norm(dim=-1)
+
+        bone_target = (bones(joints_target[1][:, int(cond["key_frame"][0])])[:, None]
+                       if has_key else bones(ref_joints).median(dim=1, keepdim=True).values)
 
         target_tr, target_key = joints_target
         has_traj = bool(cond["traj_mask"].any())
@@ -338,7 +389,10 @@ class Generator:
         def closure():
             u.grad = None
             z = smooth((u - mean) / std)
-            g = proximity * ((decode(z) - ref_joints) ** 2).sum(-1).mean()
+            joints = decode(z)
+            g = proximity * ((joints - ref_joints) ** 2).sum(-1).mean()
+            if GUIDANCE_BONES:                          # keep the bones: re-plan, don't drag
+                g = g + GUIDANCE_BONES * ((bones(joints) - bone_target) ** 2).mean()
             if has_traj:
                 g = g + control_losses(z, target_tr, cond, mean, std, rep)[0]  # Eq. (6)
             if has_key:
@@ -396,7 +450,8 @@ class Generator:
                  seed=0, guidance_scale=None, steps=50, method="ddim", return_features=False,
                  progress=False, inference_guidance=0, guidance_final=40,
                  guidance_proximity=0.01, body_constraints=True, guidance_space="x0",
-                 guidance_optimizer="lbfgs", condition_scale=1.0):
+                 guidance_optimizer="lbfgs", condition_scale=1.0, foot_lock=True,
+                 frequencies=None):
         """Generate one 40-frame motion.
 
         Parameters
@@ -441,6 +496,14 @@ class Generator:
             into the floor (:func:`~physlab.motion.body.constrain_body`; bone lengths from
             the keypose when one is given, else the clip's median lengths). The features
             returned with ``return_features`` are the network's, before this projection.
+        foot_lock : bool, with ``body_constraints``: keep each foot still while it touches
+            the ground and let the knee follow (:func:`~physlab.motion.body.lock_feet`);
+            frames where a foot has a trajectory condition, and the keypose frame, are
+            left as they are.
+        frequencies : None or an int ``1 <= K' <= K`` for a model with a low-pass output
+            basis of ``K`` DCT frequencies: x̂₀ keeps only its ``K'`` lowest at every step
+            (and so does the guidance). None = :data:`TEXT_FREQUENCIES` for text only,
+            :data:`CONTROL_FREQUENCIES` under control (capped at ``K``).
 
         Returns
         -------
@@ -492,9 +555,20 @@ class Generator:
                              f"{guidance_optimizer!r}")
         if not isinstance(body_constraints, (bool, np.bool_)):
             raise TypeError(f"body_constraints must be True or False, got {body_constraints!r}")
+        if not isinstance(foot_lock, (bool, np.bool_)):
+            raise TypeError(f"foot_lock must be True or False, got {foot_lock!r}")
         N = self.config.n_joint_frames
         c = build_condition(keypose_3d, keypose_at, trajectories_3d, n_frames=N)
         controlled = c["has_keypose"] or c["has_trajectory"]
+        K = self.config.smooth_basis
+        if frequencies is None:
+            frequencies = min(CONTROL_FREQUENCIES if controlled else TEXT_FREQUENCIES, K) or None
+        elif (isinstance(frequencies, bool) or not isinstance(frequencies, (int, np.integer))
+              or not 1 <= frequencies <= K):
+            raise ValueError(f"frequencies must be None or an integer in 1..{K} (the DCT "
+                             f"frequencies this checkpoint's x̂₀ can keep), got {frequencies!r}"
+                             if K else f"frequencies must be None: {self.path} has no "
+                             f"low-pass output basis (smooth_basis = 0), got {frequencies!r}")
         if controlled and not self.has_control:
             raise ValueError(f"{self.path} is a '{self.stage}' (text-only) checkpoint: it "
                              f"cannot take keypose_3d / trajectories_3d. Train the control "
@@ -532,7 +606,7 @@ class Generator:
         x = torch.randn(shape, generator=g)                                  # x_T ~ N(0, I)
         w, w_c = float(guidance_scale), float(condition_scale)
         bar = _progress(timesteps.tolist(), progress, f"{method} sampling")
-        with torch.no_grad():
+        with torch.no_grad(), self._frequencies(frequencies):
             for i, t in enumerate(bar):
                 t_prev = int(timesteps[i + 1]) if i + 1 < len(timesteps) else -1
                 t_in = torch.tensor([t])
@@ -558,7 +632,10 @@ class Generator:
         joints = decode_motion(feats, self.config.representation)           # (40, 22, 3)
         if body_constraints and np.all(np.isfinite(joints)):
             lengths = clip_bone_lengths(c["keypose"][None]) if c["has_keypose"] else None
-            joints = constrain_body(joints, lengths)
+            pinned = c["traj_mask"][:, [TRAJECTORY_JOINTS.index(j) for j in FOOT_TOES]].copy()
+            if c["has_keypose"]:
+                pinned[c["key_frame"]] = True
+            joints = constrain_body(joints, lengths, lock=bool(foot_lock), pinned=pinned)
         if not np.all(np.isfinite(joints)):
             raise FloatingPointError(f"sampling with {self.path} produced NaN/inf joints; "
                                      f"the checkpoint may be diverged")

@@ -217,7 +217,8 @@ def test_motion_statistics_analytic():
     x[:, 21, 1] = 1.0
     x[10, 21, 1] = 1.9                                       # right wrist up once
     s = motion_statistics(x, fps=fps)[0]
-    np.testing.assert_allclose(s, [1.95, 0.975, np.hypot(1.0, 0.5), 0.3], atol=1e-12)
+    wrist = 2 * 0.9 / (N - 1)                   # up and down once, relative to the pelvis
+    np.testing.assert_allclose(s, [1.95, 0.975, np.hypot(1.0, 0.5), 0.3, wrist], atol=1e-12)
     with pytest.raises(ValueError, match="shape"):
         motion_statistics(np.zeros((40, 21, 3)))
 

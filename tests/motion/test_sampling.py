@@ -147,7 +147,30 @@ BAD = [
     ({"guidance_space": "z"}, ValueError, "guidance_space must be one of"),
     ({"guidance_optimizer": "sgd"}, ValueError, "guidance_optimizer must be one of"),
     ({"body_constraints": "yes"}, TypeError, "body_constraints must be True or False"),
+    ({"foot_lock": 1}, TypeError, "foot_lock must be True or False"),
+    ({"frequencies": 0}, ValueError, r"frequencies must be None or an integer in 1\.\.16"),
+    ({"frequencies": 17}, ValueError, r"frequencies must be None or an integer in 1\.\.16"),
+    ({"frequencies": 4.0}, ValueError, "frequencies must be None or an integer"),
 ]
+
+
+def test_frequencies_keep_the_lowest_dct_frequencies_of_the_clip(gen, text):
+    """``frequencies=k``: every feature column of the result lies in the span of the k
+    lowest DCT-II basis vectors (checked against scipy's orthonormal DCT); None means
+    TEXT_FREQUENCIES for text only."""
+    from scipy.fft import dct
+
+    from physlab.motion.sampling import TEXT_FREQUENCIES
+
+    assert gen.config.smooth_basis == 16
+    for k in (4, 16):
+        _, f = gen(text, steps=STEPS, frequencies=k, return_features=True)
+        c = dct(f, type=2, norm="ortho", axis=0)                         # (T, D) coefficients
+        assert np.abs(c[k:]).max() < 1e-4 * np.abs(c[:k]).max(), k
+        assert np.abs(c[k - 1]).max() > 1e-3 * np.abs(c[:k]).max(), k    # and uses the k-th
+    default = gen(text, steps=STEPS)
+    np.testing.assert_array_equal(default, gen(text, steps=STEPS, frequencies=TEXT_FREQUENCIES))
+    assert not np.allclose(default, gen(text, steps=STEPS, frequencies=16))
 
 
 def test_inference_guidance_pulls_the_motion_onto_the_conditions(gen, text):
