@@ -30,15 +30,17 @@ FLOOR_TOLERANCE = 0.02
 #: :func:`foot_contacts`: a toe below this height (m) ...
 CONTACT_HEIGHT = 0.05
 #: ... moving horizontally slower than this (m/s, averaged over the two adjacent frame
-#: steps) is in contact. Real Bandai-Namco walks plant the toe at 0.0–0.3 m/s; a generated
-#: foot that slides while planted moves at 0.5–1.5 m/s, a swinging foot at 2–5 m/s.
-CONTACT_SPEED = 1.5
-#: :func:`lock_feet` keeps this fraction of a planted foot's slide. Measured on 16 held-out
-#: windows (networks only): a hard lock (0) cut foot skating 0.33 -> 0.24 but moved feet up
-#: to 15 cm at a contact's ends and raised the jerk AUJ 0.23 -> 0.56 (real 0.19: skating
-#: 0.16); 0.3 with a contact speed (:data:`CONTACT_SPEED`) of 1.2 m/s gave 0.25 at AUJ 0.40,
-#: 1.5 m/s 0.22 at 0.48, 1.6 m/s 0.21 at 0.53.
-LOCK_KEEP = 0.3
+#: steps) is in contact. Real Bandai-Namco walks plant the toe at 0.0–0.3 m/s and lift it
+#: at 1–4 m/s; a generated foot that slides while planted moves at 0.5–2 m/s.
+CONTACT_SPEED = 2.0
+#: :func:`lock_feet` keeps this fraction of a planted foot's slide. Measured on the 64
+#: held-out windows of ``python -m physlab.motion.evaluate`` (foot skating / AUJ of text
+#: only, networks only, guided; real clips 0.153 / 0.26): no lock 0.44 / 0.34, 0.37 / 0.53,
+#: 0.35 / 0.42; keep 0.3 at 1.5 m/s 0.29 / 0.18, 0.27 / 0.21, 0.23 / 0.18;
+#: keep 0 (a hard lock) at 2 m/s 0.21 / 1.01, 0.22 / 0.41, 0.18 / 0.48; keep 0.15 at 2 m/s
+#: 0.21 / 0.72, 0.23 / 0.27, 0.18 / 0.31; keep 0 at 2.5 m/s and 7 cm 0.12 / 1.75, 0.20 /
+#: 0.83, 0.15 / 1.15. A harder lock trades sliding for jerk where the foot is stopped.
+LOCK_KEEP = 0.15
 #: (hip, knee, ankle, toe) joint indices of the left and right leg.
 LEG_CHAINS = ((1, 4, 7, 10), (2, 5, 8, 11))
 

@@ -27,7 +27,7 @@ SHIPPED = [DEFAULT_CHECKPOINT, SINGLE]
 #: 0.036 m pose error — issue 12's 0.15 m / 0.06 m targets.
 TRAJ_LIMIT, KEY_LIMIT, POSE_LIMIT, TRAJ_GAIN, KEY_GAIN = 0.15, 0.10, 0.05, 1.8, 2.5
 #: Largest joint step where a partial stroke starts or ends, over the clip's median step, of
-#: guided clips: issue 12's bound (measured 1.54 here, 3.06 on 64 windows at 50 steps, where
+#: guided clips: issue 12's bound (measured 2.04 here, 3.06 on 64 windows at 50 steps, where
 #: the worst clip starts raising its hand inside its 5-frame stroke). The networks alone
 #: jump more there (2.3 here, 3.8 on 64 windows; real clips 6.0): not asserted, in the README.
 EDGE_LIMIT = 3.0
@@ -117,15 +117,15 @@ def test_guidance_lands_on_the_conditions_and_keeps_the_body(held_out):
 
 def test_motion_is_about_as_smooth_as_mocap_and_feet_do_not_skate_far_more(held_out):
     """Issue 12's quality targets (jerk AUJ and PJ <= 3x real, foot skating <= 1.5x real on 64
-    windows at 50 steps, README) with margins for 8 windows at 20 steps (measured: AUJ 0.30 /
-    0.30 / 0.34 and PJ 0.068 / 0.065 / 0.077 for text / networks / guided against 0.30 and
-    0.050 real; skating 0.25 / 0.28 / 0.25 against 0.15)."""
+    windows at 50 steps, README) with margins for 8 windows at 20 steps (measured: AUJ 0.72 /
+    0.70 / 0.64 and PJ 0.111 / 0.112 / 0.092 for text / networks / guided against 0.30 and
+    0.050 real; skating 0.15 / 0.22 / 0.18 against 0.15)."""
     rows = held_out[0]
     real = rows["real"]
     for label in ("text", "networks", "guided"):
         r = rows[label]
-        assert r["auj"] <= 3 * real["auj"] and r["pj"] <= 3 * real["pj"], (label, rows)
-        assert r["foot_skating"] <= 2.5 * real["foot_skating"], (label, rows)
+        assert r["auj"] <= 3.5 * real["auj"] and r["pj"] <= 3.5 * real["pj"], (label, rows)
+        assert r["foot_skating"] <= 2 * real["foot_skating"], (label, rows)
 
 
 def test_text_only_motion_follows_the_action(gen):
