@@ -134,15 +134,21 @@ def _parser():
     g = sub.add_parser("generate", help="Sketch2Anim motion from an action text (+ conditions)",
                        epilog="examples:\n  physlab generate \"a person walks\" --out walk.bvh\n"
                               "  physlab generate \"a person runs\" --keypose pose.npy "
-                              "--trajectory pelvis=path.npy --out run.gif\n\n--keypose: a .npy "
+                              "--trajectory pelvis=path.npy --out run.gif\n"
+                              "  physlab generate \"a person walks\" --trajectory pelvis=drawn.npy "
+                              "--camera 1,20,45 --out walk.bvh\n\n--keypose: a .npy "
                               "(22, 3) array in metres; --trajectory JOINT=FILE: a .npy (t_r, 3) "
                               "array for pelvis, left_foot, right_foot, head, left_wrist or "
-                              "right_wrist (canonical frame, see physlab.motion.sampling).")
+                              "right_wrist (canonical frame, see physlab.motion.sampling). "
+                              "(22, 2) / (t_r, 2) arrays are a sketch in the normalised image "
+                              "coordinates of --camera (physlab.motion.camera).")
     g.add_argument("action", help='action text, e.g. "a person walks"')
     g.add_argument("--keypose", default=None, help="(22, 3) .npy keypose in metres")
     g.add_argument("--keypose-at", default="first", choices=("first", "last"))
     g.add_argument("--trajectory", action="append", default=[], metavar="JOINT=FILE",
                    help="(t_r, 3) .npy trajectory of a joint (repeatable)")
+    g.add_argument("--camera", default=None, metavar="SCALE,PITCH,YAW[,ROLL]",
+                   help="the view a 2D keypose / trajectory was drawn in (degrees)")
     g.add_argument("--seed", type=int, default=0)
     g.add_argument("--guidance-scale", type=float, default=None,
                    help="text CFG scale w (default 2.5, or 1 with --keypose/--trajectory)")
@@ -299,15 +305,32 @@ def _generate(args):
     if suffix not in (".bvh", ".gif", ".npy"):
         raise ValueError(f"--out {args.out}: cannot write {suffix or 'a file without extension'}"
                          f"; use .bvh, .gif or .npy")
-    trajectories = {}
+    trajectories = {2: {}, 3: {}}
     for item in args.trajectory:
         joint, sep, path = item.partition("=")
         if not sep:
             raise ValueError(f"--trajectory {item!r}: expected JOINT=FILE, e.g. pelvis=path.npy")
-        trajectories[joint] = load(path, f"--trajectory {joint}")
-    joints = generate(args.action, keypose_3d=None if args.keypose is None else
-                      load(args.keypose, "--keypose"), keypose_at=args.keypose_at,
-                      trajectories_3d=trajectories or None, seed=args.seed,
+        a = load(path, f"--trajectory {joint}")
+        trajectories[2 if a.ndim == 2 and a.shape[-1] == 2 else 3][joint] = a
+    keypose = {2: None, 3: None}
+    if args.keypose is not None:
+        a = load(args.keypose, "--keypose")
+        keypose[2 if a.shape[-1:] == (2,) else 3] = a
+    camera = None
+    if args.camera is not None:
+        from physlab.motion import Camera
+
+        try:
+            values = [float(v) for v in args.camera.split(",")]
+        except ValueError:
+            values = []
+        if len(values) not in (3, 4):
+            raise ValueError(f"--camera {args.camera!r}: expected SCALE,PITCH,YAW[,ROLL] in "
+                             f"degrees, e.g. 1,20,45")
+        camera = Camera(*values)
+    joints = generate(args.action, keypose_3d=keypose[3], keypose_at=args.keypose_at,
+                      trajectories_3d=trajectories[3] or None, keypose_2d=keypose[2],
+                      trajectories_2d=trajectories[2] or None, camera=camera, seed=args.seed,
                       guidance_scale=args.guidance_scale, steps=args.steps,
                       checkpoint=args.checkpoint)
     if suffix == ".bvh":

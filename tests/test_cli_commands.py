@@ -186,8 +186,28 @@ def test_generate_writes_a_clip(tmp_path, suffix, capsys):
         assert read_bvh(out).n_frames == 40
 
 
+@pytest.mark.filterwarnings("ignore:the BVH reproduces the joints only")
+def test_generate_from_a_2d_sketch(tmp_path, capsys):
+    """A pelvis path drawn in a 3/4 view (normalised image units) and --camera: the clip's
+    projection follows it (the shipped model with its default guidance)."""
+    from physlab.motion import Camera
+
+    cam = Camera(1.0, 20, 45)
+    path = np.stack([np.linspace(0, 0.8, 40), np.linspace(0.8, 0.6, 40)], 1)
+    np.save(tmp_path / "drawn.npy", path)
+    out = tmp_path / "walk.npy"
+    status, _, err = _run(["generate", "a person walks", "--trajectory",
+                           f"pelvis={tmp_path / 'drawn.npy'}", "--camera", "1,20,45",
+                           "--steps", "10", "--out", str(out)], capsys)
+    assert status == 0, err
+    q = cam.project(np.load(out))[:, 0]
+    assert np.linalg.norm(q - path, axis=-1).mean() < 0.1
+
+
 @pytest.mark.parametrize("args, match", [
     (["generate", "a person walks", "--out", "x.avi"], "cannot write .avi"),
+    (["generate", "a person walks", "--camera", "1,20", "--out", "x.bvh"],
+     "expected SCALE,PITCH,YAW"),
     (["generate", "a person walks", "--trajectory", "pelvis", "--out", "x.bvh"],
      "expected JOINT=FILE"),
     (["generate", "a person walks", "--trajectory", "tail=/nonexistent.npy", "--out", "x.bvh"],

@@ -10,6 +10,8 @@ motion generator.
 * :mod:`.dataset` — Bandai-Namco clips (cached), action texts, 40-frame training windows,
   Sketch2Anim's keypose + trajectory conditions (Sec. 3), the held-out split by take;
 * :mod:`.metrics` — foot-skating ratio (GMD), MPJPE, trajectory error, jerk (AUJ, PJ);
+* :mod:`.camera` — Sketch2Anim's storyboard :class:`Camera` (orthographic ``P(x, v)``,
+  normalised image coordinates, pixels) and the sketch augmentations of supp. B;
 * :mod:`.export` — :func:`joints_to_bvh`, generated joint positions → BVH (Blender);
 * :mod:`.text` — the offline action-word encoder (all-MiniLM-L6-v2, CLIP's stand-in) and
   its embedding cache (loads sentence-transformers only when encoding);
@@ -25,6 +27,7 @@ themselves and are not imported here.
 from .bvh import (BANDAI_NAMCO_MAPPING, CMU_MAPPING, CMU_MAX_MAPPING, CMU_SCALE, BVHMotion,
                   SMPL22Mapping, read_bvh, resample_local, retarget_to_smpl22, write_bvh)
 from . import metrics, text
+from .camera import Camera
 from .export import joints_to_bvh
 from .dataset import (TRAJECTORY_JOINT_NAMES, TRAJECTORY_JOINTS, Condition, MotionClip, Windows,
                       action_text, condition_from_window, load_clips, make_windows,
@@ -41,7 +44,7 @@ __all__ = [
     "FEATURE_DIM", "FeatureStats", "canonicalize", "joints_to_features", "features_to_joints",
     "TRAJECTORY_JOINTS", "TRAJECTORY_JOINT_NAMES", "MotionClip", "Windows", "Condition",
     "load_clips", "action_text", "make_windows", "condition_from_window", "split_by_take",
-    "metrics", "text", "joints_to_bvh",
+    "metrics", "text", "joints_to_bvh", "Camera",
     "generate", "Generator", "load_generator", "build_condition", "DEFAULT_CHECKPOINT",
 ]
 

@@ -10,7 +10,7 @@ import torch
 from .dataset import TRAJECTORY_JOINTS
 from .model import features_to_joints_torch
 
-__all__ = ["control_losses"]
+__all__ = ["control_losses", "sketch_losses"]
 
 
 def control_losses(x0_hat, joints, cond, mean, std, representation="relative"):
@@ -47,3 +47,39 @@ def control_losses(x0_hat, joints, cond, mean, std, representation="relative"):
         km = km.to(e_key.dtype)
         l_key = (km * e_key).sum() / km.sum().clamp(min=1)
     return l_tr, l_key
+
+
+def sketch_losses(joints, sketch):
+    """The 2D guidance terms of a sketch (Sketch2Anim supp. C): ``G`` of Eq. (16), the masked
+    mean squared distance between the projected trajectory joints ``P(x̂₀, v)`` and the drawn
+    2D trajectories, and its keypose analogue, the squared distance of the root-relative
+    projected pose at the key frame to the drawn one, summed over the 22 joints (Eq. (8) in
+    the picture; the paper leaves the keypose to its 2D encoders, which physlab has not
+    trained yet, so the guidance carries it).
+
+    Parameters
+    ----------
+    joints : (B, N, 22, 3) decoded joints R(x̂₀) (m).
+    sketch : dict with ``projection`` (2, 3) tensor ``s · R[:2]`` of the camera
+        (:class:`~physlab.motion.camera.Camera`), ``trajectory`` (B, N, 6, 2) and
+        ``traj_mask`` (B, N, 6) bool (normalised image units, the :data:`TRAJECTORY_JOINTS`),
+        ``keypose`` None or (B, 22, 2), ``key_frame`` int.
+
+    Returns
+    -------
+    (G, L_key2D) scalars in normalised units².
+    """
+    p = joints @ sketch["projection"].to(joints.dtype).T                    # (B, N, 22, 2)
+    g = joints.new_zeros(())
+    m = sketch["traj_mask"].to(p.dtype)
+    if bool(m.any()):
+        d2 = ((p[:, :, list(TRAJECTORY_JOINTS)] - sketch["trajectory"].to(p.dtype)) ** 2).sum(-1)
+        g = (m * d2).sum() / m.sum().clamp(min=1)                            # Eq. (16)
+    key = sketch.get("keypose")
+    l_key = joints.new_zeros(())
+    if key is not None:
+        kf = int(sketch["key_frame"])
+        rel_p = p[:, kf] - p[:, kf, :1]
+        key = key.to(p.dtype)
+        l_key = ((rel_p - (key - key[:, :1])) ** 2).sum((1, 2)).mean()
+    return g, l_key

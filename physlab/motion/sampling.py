@@ -56,8 +56,8 @@ from .features import decode_motion
 from .model import ControlledDenoiser, features_to_joints_torch, low_pass_matrix
 from .skeleton import JOINT_NAMES, PARENTS
 
-__all__ = ["DEFAULT_CHECKPOINT", "N_FRAMES", "Generator", "build_condition", "generate",
-           "load_generator"]
+__all__ = ["DEFAULT_CHECKPOINT", "N_FRAMES", "Generator", "build_condition", "build_sketch",
+           "generate", "load_generator"]
 
 #: Default control checkpoint used by :func:`generate` (not shipped; train it, see below).
 DEFAULT_CHECKPOINT = Path(__file__).resolve().parents[2] / "data" / "motion" / \
@@ -158,6 +158,37 @@ def _progress(items, show, desc):
     return tqdm(items, desc=desc, leave=False)
 
 
+def _trajectories(trajectories, name, dim, N, keypose_at):
+    """Validate a ``{joint_name: (t_r, dim) array}`` dict and place it in an ``(N, 6, dim)``
+    array (the first ``t_r`` frames, or the last with ``keypose_at="last"``) with its
+    ``(N, 6)`` mask."""
+    trajectory = np.zeros((N, len(TRAJECTORY_JOINTS), dim))
+    mask = np.zeros((N, len(TRAJECTORY_JOINTS)), dtype=bool)
+    if trajectories is None:
+        return trajectory, mask
+    if not isinstance(trajectories, dict):
+        raise TypeError(f"{name} must be a dict {{joint_name: (t_r, {dim}) array}} with names "
+                        f"from {', '.join(TRAJECTORY_JOINT_NAMES)}; got "
+                        f"{type(trajectories).__name__}")
+    unknown = [k for k in trajectories if k not in TRAJECTORY_JOINT_NAMES]
+    if unknown:
+        raise ValueError(f"{name} has unknown joint names {unknown}; valid names are "
+                         f"{', '.join(TRAJECTORY_JOINT_NAMES)}")
+    for joint, traj in trajectories.items():
+        p = _finite_array(traj, f"{name}[{joint!r}]")
+        if p.ndim != 2 or p.shape[1] != dim or len(p) < 1:
+            raise ValueError(f"{name}[{joint!r}] must have shape (t_r, {dim}) with t_r >= 1, "
+                             f"got {p.shape}")
+        if len(p) > N:
+            raise ValueError(f"{name}[{joint!r}] has {len(p)} frames, more than the {N} "
+                             f"frames of a generated clip")
+        col = TRAJECTORY_JOINT_NAMES.index(joint)
+        frames = np.arange(len(p)) if keypose_at == "first" else np.arange(N - len(p), N)
+        trajectory[frames, col] = p
+        mask[frames, col] = True
+    return trajectory, mask
+
+
 def build_condition(keypose_3d=None, keypose_at="first", trajectories_3d=None,
                     n_frames=N_FRAMES):
     """Dense keypose / trajectory condition of one clip, laid out like
@@ -185,32 +216,44 @@ def build_condition(keypose_3d=None, keypose_at="first", trajectories_3d=None,
     keypose = np.zeros((len(JOINT_NAMES), 3))
     if keypose_3d is not None:
         keypose = _finite_array(keypose_3d, "keypose_3d", (len(JOINT_NAMES), 3))
-    trajectory = np.zeros((N, len(TRAJECTORY_JOINTS), 3))
-    mask = np.zeros((N, len(TRAJECTORY_JOINTS)), dtype=bool)
-    if trajectories_3d is not None:
-        if not isinstance(trajectories_3d, dict):
-            raise TypeError(f"trajectories_3d must be a dict {{joint_name: (t_r, 3) array}} "
-                            f"with names from {', '.join(TRAJECTORY_JOINT_NAMES)}; got "
-                            f"{type(trajectories_3d).__name__}")
-        unknown = [k for k in trajectories_3d if k not in TRAJECTORY_JOINT_NAMES]
-        if unknown:
-            raise ValueError(f"trajectories_3d has unknown joint names {unknown}; valid names "
-                             f"are {', '.join(TRAJECTORY_JOINT_NAMES)}")
-        for name, traj in trajectories_3d.items():
-            p = _finite_array(traj, f"trajectories_3d[{name!r}]")
-            if p.ndim != 2 or p.shape[1] != 3 or len(p) < 1:
-                raise ValueError(f"trajectories_3d[{name!r}] must have shape (t_r, 3) with "
-                                 f"t_r >= 1, got {p.shape}")
-            if len(p) > N:
-                raise ValueError(f"trajectories_3d[{name!r}] has {len(p)} frames, more than "
-                                 f"the {N} frames of a generated clip")
-            c = TRAJECTORY_JOINT_NAMES.index(name)
-            frames = np.arange(len(p)) if keypose_at == "first" else np.arange(N - len(p), N)
-            trajectory[frames, c] = p
-            mask[frames, c] = True
+    trajectory, mask = _trajectories(trajectories_3d, "trajectories_3d", 3, N, keypose_at)
     return {"trajectory": trajectory, "traj_mask": mask, "keypose": keypose,
             "key_frame": key_frame, "has_keypose": keypose_3d is not None,
             "has_trajectory": bool(mask.any())}
+
+
+def build_sketch(keypose_2d=None, keypose_at="first", trajectories_2d=None, camera=None,
+                 n_frames=N_FRAMES):
+    """Validate 2D (sketch) conditions and lay them out for the 2D guidance
+    (:func:`~physlab.motion.guidance.sketch_losses`): the keypose and trajectories drawn in the
+    view of ``camera`` (normalised image units, :mod:`~physlab.motion.camera`), placed as the
+    3D ones are (:func:`build_condition`).
+
+    Returns
+    -------
+    dict: ``trajectory`` (N, 6, 2), ``traj_mask`` (N, 6) bool, ``keypose`` (22, 2) or None,
+    ``key_frame`` int, ``projection`` (2, 3) ``s · R[:2]`` or None, ``has_keypose``,
+    ``has_trajectory`` bool.
+    """
+    from .camera import Camera
+
+    if keypose_at not in KEYPOSE_AT:
+        raise ValueError(f"keypose_at must be 'first' or 'last', got {keypose_at!r}")
+    N = int(n_frames)
+    key_frame = 0 if keypose_at == "first" else N - 1
+    keypose = None
+    if keypose_2d is not None:
+        keypose = _finite_array(keypose_2d, "keypose_2d", (len(JOINT_NAMES), 2))
+    trajectory, mask = _trajectories(trajectories_2d, "trajectories_2d", 2, N, keypose_at)
+    drawn = keypose is not None or bool(mask.any())
+    if drawn and not isinstance(camera, Camera):
+        raise ValueError(f"keypose_2d / trajectories_2d need the camera they were drawn in: "
+                         f"camera=physlab.motion.camera.Camera(scale, pitch, yaw, roll), got "
+                         f"{camera!r}")
+    projection = camera.scale * camera.rotation[:2] if drawn else None
+    return {"trajectory": trajectory, "traj_mask": mask, "keypose": keypose,
+            "key_frame": key_frame, "projection": projection,
+            "has_keypose": keypose is not None, "has_trajectory": bool(mask.any())}
 
 
 # ----------------------------------------------------------------------------- generator
@@ -332,7 +375,8 @@ class Generator:
         controlled = self.model(x, t, a, cond, one)                         # out_{a,K,T}
         return text + w_c * (controlled - out_a)                            # Eq. (14), sketch
 
-    def _guide(self, out, x, t, cond, joints_target, iters, proximity, optimizer="lbfgs"):
+    def _guide(self, out, x, t, cond, joints_target, iters, proximity, optimizer="lbfgs",
+               sketch=None):
         """Inference guidance (Sketch2Anim supp. C, Eq. (15); loss-guided diffusion): ``iters``
         L-BFGS iterations on the clean-motion estimate x̂₀ of this step, minimising
         ``G(x) = L_tr(R(x)) + L_key(R(x)) + proximity · mean_j ‖R(x)_j − R(x̂₀)_j‖²
@@ -341,7 +385,9 @@ class Generator:
         the motion near the network's whatever the feature scaling; the bone term,
         :data:`GUIDANCE_BONES`, keeps each bone at the keypose's length ``L_j``, or at its
         median over the pre-guidance clip), then the network output is rewritten for the
-        corrected x̂₀ so the sampler's step uses it.
+        corrected x̂₀ so the sampler's step uses it. A ``sketch`` (2D conditions, see
+        :func:`~physlab.motion.guidance.sketch_losses`) adds ``G`` of Eq. (16) and its keypose
+        term.
 
         The paper differentiates G through the network w.r.t. z_t and applies it only to its
         2D trajectories; physlab differentiates w.r.t. x̂₀ (no backpropagation through the
@@ -351,7 +397,7 @@ class Generator:
         :meth:`_guide_network` is the paper's form. ``optimizer="gradient"``: ``iters`` Adam
         steps (lr :data:`FIRST_ORDER_LR`) instead of L-BFGS, the first-order variant of Table
         A3."""
-        from .guidance import control_losses
+        from .guidance import control_losses, sketch_losses
 
         sched = self.scheduler
         x0, _ = sched.split_output(out, x, t)
@@ -368,7 +414,7 @@ class Generator:
             return features_to_joints_torch(v * std + mean, representation=rep)
 
         ref_joints = decode(ref)
-        has_key = bool(cond["keypose_mask"].any())
+        has_key = cond is not None and bool(cond["keypose_mask"].any())
         child = torch.arange(1, len(PARENTS))
         parent = torch.as_tensor(np.array(PARENTS[1:]))
 
@@ -378,8 +424,8 @@ class Generator:
         bone_target = (bones(joints_target[1][:, int(cond["key_frame"][0])])[:, None]
                        if has_key else bones(ref_joints).median(dim=1, keepdim=True).values)
 
-        target_tr, target_key = joints_target
-        has_traj = bool(cond["traj_mask"].any())
+        target_tr, target_key = joints_target if joints_target is not None else (None, None)
+        has_traj = cond is not None and bool(cond["traj_mask"].any())
 
         lp = getattr(self.denoiser, "low_pass", None)        # a smooth-basis model's P
 
@@ -397,6 +443,8 @@ class Generator:
                 g = g + control_losses(z, target_tr, cond, mean, std, rep)[0]  # Eq. (6)
             if has_key:
                 g = g + control_losses(z, target_key, cond, mean, std, rep)[1]  # Eq. (8)
+            if sketch is not None:
+                g = g + sum(sketch_losses(joints, sketch))                     # Eq. (16)
             g.backward()
             return g
 
@@ -413,7 +461,7 @@ class Generator:
         return a.sqrt() * eps - (1 - a).sqrt() * x0g                      # v
 
     def _guide_network(self, x, t, a, cond, w, joints_target, iters, optimizer="lbfgs",
-                       w_c=1.0):
+                       w_c=1.0, sketch=None):
         """Sketch2Anim's inference guidance (supp. C, Eq. (15), in 3D): move the noisy sample
         ``z_t`` itself so that the network's clean estimate ``x̂₀(z_t)`` meets the conditions,
         ``z_t ← argmin G(x̂₀(z_t))`` by ``iters`` L-BFGS iterations (or Adam steps) with
@@ -425,9 +473,11 @@ class Generator:
         mean = torch.as_tensor(self.stats.mean, dtype=x.dtype)
         std = torch.as_tensor(self.stats.std, dtype=x.dtype)
         rep = self.config.representation
-        target_tr, target_key = joints_target
-        has_traj = bool(cond["traj_mask"].any())
-        has_key = bool(cond["keypose_mask"].any())
+        from .guidance import sketch_losses
+
+        target_tr, target_key = joints_target if joints_target is not None else (None, None)
+        has_traj = cond is not None and bool(cond["traj_mask"].any())
+        has_key = cond is not None and bool(cond["keypose_mask"].any())
         z = x.detach().clone().requires_grad_(True)
 
         def closure():
@@ -438,6 +488,9 @@ class Generator:
                 g = g + control_losses(x0, target_tr, cond, mean, std, rep)[0]   # Eq. (6)
             if has_key:
                 g = g + control_losses(x0, target_key, cond, mean, std, rep)[1]  # Eq. (8)
+            if sketch is not None:                                           # Eq. (16)
+                g = g + sum(sketch_losses(features_to_joints_torch(x0 * std + mean,
+                                                                   representation=rep), sketch))
             g.backward()
             return g
 
@@ -451,7 +504,7 @@ class Generator:
                  progress=False, inference_guidance=0, guidance_final=40,
                  guidance_proximity=0.01, body_constraints=True, guidance_space="x0",
                  guidance_optimizer="lbfgs", condition_scale=1.0, foot_lock=True,
-                 frequencies=None):
+                 frequencies=None, keypose_2d=None, trajectories_2d=None, camera=None):
         """Generate one 40-frame motion.
 
         Parameters
@@ -504,6 +557,13 @@ class Generator:
             basis of ``K`` DCT frequencies: x̂₀ keeps only its ``K'`` lowest at every step
             (and so does the guidance). None = :data:`TEXT_FREQUENCIES` for text only,
             :data:`CONTROL_FREQUENCIES` under control (capped at ``K``).
+        keypose_2d, trajectories_2d, camera : a sketch (:func:`build_sketch`): a (22, 2)
+            keypose and/or ``{joint_name: (t_r, 2)}`` trajectories in the normalised image
+            coordinates of ``camera`` (:class:`~physlab.motion.camera.Camera`), placed like
+            the 3D ones by ``keypose_at``. Until the 2D encoders of Sec. 5 are trained they act
+            through the inference guidance only (Eqs. (15)–(16) with a 2D keypose term), so
+            they need ``guidance_final`` or ``inference_guidance`` > 0; they may be mixed with
+            3D conditions of other joints.
 
         Returns
         -------
@@ -559,6 +619,17 @@ class Generator:
             raise TypeError(f"foot_lock must be True or False, got {foot_lock!r}")
         N = self.config.n_joint_frames
         c = build_condition(keypose_3d, keypose_at, trajectories_3d, n_frames=N)
+        sk = build_sketch(keypose_2d, keypose_at, trajectories_2d, camera, n_frames=N)
+        both = [n for i, n in enumerate(TRAJECTORY_JOINT_NAMES)
+                if c["traj_mask"][:, i].any() and sk["traj_mask"][:, i].any()]
+        if both or (c["has_keypose"] and sk["has_keypose"]):
+            raise ValueError(f"give each condition in 3D or in 2D, not both: "
+                             f"{'keypose' if not both else ', '.join(both)} has both")
+        drawn = sk["has_keypose"] or sk["has_trajectory"]
+        if drawn and not (guidance_final > 0 or inference_guidance > 0):
+            raise ValueError("keypose_2d / trajectories_2d act through the inference guidance "
+                             "(the 2D encoders are not trained yet): keep guidance_final > 0 "
+                             "or inference_guidance > 0")
         controlled = c["has_keypose"] or c["has_trajectory"]
         K = self.config.smooth_basis
         if frequencies is None:
@@ -593,6 +664,15 @@ class Generator:
             key = np.zeros((N, len(JOINT_NAMES), 3))
             key[c["key_frame"]] = c["keypose"]
             target = tuple(torch.tensor(v, dtype=torch.float32)[None] for v in (tr, key))
+        sketch = None
+        if drawn:
+            sketch = {"projection": torch.tensor(sk["projection"], dtype=torch.float32),
+                      "trajectory": torch.tensor(sk["trajectory"], dtype=torch.float32)[None],
+                      "traj_mask": torch.tensor(sk["traj_mask"])[None],
+                      "keypose": None if sk["keypose"] is None else
+                      torch.tensor(sk["keypose"], dtype=torch.float32)[None],
+                      "key_frame": sk["key_frame"]}
+        guided = target is not None or sketch is not None
 
         # The sampling loop, written out (as diffusers pipelines do): start from noise x_T,
         # then at every timestep ask the network for its output (with classifier-free
@@ -612,15 +692,15 @@ class Generator:
                 t_in = torch.tensor([t])
                 final = t_prev == -1
                 iters = guidance_final if final else inference_guidance
-                if target is not None and iters > 0 and not final and guidance_space == "network":
+                if guided and iters > 0 and not final and guidance_space == "network":
                     x, out = self._guide_network(x, t_in, a, cond, w, target, iters,
-                                                 guidance_optimizer, w_c)   # Eq. (15)
+                                                 guidance_optimizer, w_c, sketch)  # Eq. (15)
                 else:
                     out = self._predict(x, t_in, a, cond, w, w_c)           # x̂₀ / ε̂ / v̂
-                    if target is not None and iters > 0:
+                    if guided and iters > 0:
                         out = self._guide(out, x, t_in, cond, target, iters,
                                           float(guidance_proximity),
-                                          "lbfgs" if final else guidance_optimizer)
+                                          "lbfgs" if final else guidance_optimizer, sketch)
                 if method == "ddim":
                     x, x0 = sched.ddim_step(out, t, t_prev, x)
                 else:
@@ -632,8 +712,9 @@ class Generator:
         joints = decode_motion(feats, self.config.representation)           # (40, 22, 3)
         if body_constraints and np.all(np.isfinite(joints)):
             lengths = clip_bone_lengths(c["keypose"][None]) if c["has_keypose"] else None
-            pinned = c["traj_mask"][:, [TRAJECTORY_JOINTS.index(j) for j in FOOT_TOES]].copy()
-            if c["has_keypose"]:
+            toes = [TRAJECTORY_JOINTS.index(j) for j in FOOT_TOES]
+            pinned = c["traj_mask"][:, toes] | sk["traj_mask"][:, toes]
+            if c["has_keypose"] or sk["has_keypose"]:
                 pinned[c["key_frame"]] = True
             joints = constrain_body(joints, lengths, lock=bool(foot_lock), pinned=pinned)
         if not np.all(np.isfinite(joints)):
@@ -661,13 +742,15 @@ def load_generator(checkpoint=None):
     return _cached_generator(str(path), st.st_mtime_ns, st.st_size)
 
 
-def generate(action, keypose_3d=None, keypose_at="first", trajectories_3d=None, seed=0,
-             guidance_scale=None, steps=50, checkpoint=None, **options):
-    """``(40, 22, 3)`` joints (m) for an action text and optional keypose / trajectories
-    (DESIGN.md's ``from physlab.motion import generate``); ``checkpoint`` defaults to
-    :data:`DEFAULT_CHECKPOINT`, loaded once and cached. ``options``: ``method``,
-    ``return_features``, ``progress`` of :meth:`Generator.__call__`."""
+def generate(action, keypose_3d=None, keypose_at="first", trajectories_3d=None,
+             keypose_2d=None, trajectories_2d=None, camera=None, seed=0, guidance_scale=None,
+             steps=50, checkpoint=None, **options):
+    """``(40, 22, 3)`` joints (m) for an action text and optional keypose / trajectories, in
+    3D or drawn in 2D in the view of ``camera`` (DESIGN.md's ``from physlab.motion import
+    generate``); ``checkpoint`` defaults to :data:`DEFAULT_CHECKPOINT`, loaded once and
+    cached. ``options``: the other keywords of :meth:`Generator.__call__`."""
     gen = load_generator(checkpoint)
     return gen(action, keypose_3d=keypose_3d, keypose_at=keypose_at,
-               trajectories_3d=trajectories_3d, seed=seed, guidance_scale=guidance_scale,
-               steps=steps, **options)
+               trajectories_3d=trajectories_3d, keypose_2d=keypose_2d,
+               trajectories_2d=trajectories_2d, camera=camera, seed=seed,
+               guidance_scale=guidance_scale, steps=steps, **options)

@@ -253,3 +253,79 @@ def test_generate_is_the_function_of_design_md_and_import_stays_torch_free():
             "assert 'keypose_3d' in inspect.signature(generate).parameters; print('ok')")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert out.returncode == 0 and out.stdout.strip() == "ok", out.stderr
+
+
+def test_sketch_losses_match_a_numpy_reference():
+    """G of Eq. (16) and the 2D keypose term against numpy, zero on the sketch's own
+    projection."""
+    import torch
+
+    from physlab.motion.camera import Camera
+    from physlab.motion.guidance import sketch_losses
+    from physlab.motion.sampling import build_sketch
+
+    rng = np.random.default_rng(0)
+    joints = rng.normal(size=(40, 22, 3))
+    cam = Camera(scale=1.1, pitch=20, yaw=-30)
+    p = cam.project(joints)
+    traj = {"pelvis": p[:12, 0] + 0.1, "right_wrist": p[:5, 21]}
+    key = p[0] + rng.normal(0, 0.05, (22, 2))
+    sk = build_sketch(key, "first", traj, cam, n_frames=40)
+    t = {"projection": torch.tensor(sk["projection"]), "trajectory":
+         torch.tensor(sk["trajectory"])[None], "traj_mask": torch.tensor(sk["traj_mask"])[None],
+         "keypose": torch.tensor(sk["keypose"])[None], "key_frame": sk["key_frame"]}
+    g, k = sketch_losses(torch.tensor(joints)[None], t)
+    d2 = [0.02] * 12 + [0.0] * 5                    # (0.1² + 0.1²) per pelvis point, 0 wrist
+    assert float(g) == pytest.approx(np.mean(d2), rel=1e-9)
+    ref = ((p[0] - p[0, :1]) - (key - key[:1])) ** 2
+    assert float(k) == pytest.approx(ref.sum(), rel=1e-9)
+    sk = build_sketch(p[0], "first", {"pelvis": p[:12, 0], "right_wrist": p[:5, 21]}, cam, 40)
+    exact = dict(t, trajectory=torch.tensor(sk["trajectory"])[None],
+                 keypose=torch.tensor(sk["keypose"])[None])
+    assert all(float(v) < 1e-20 for v in sketch_losses(torch.tensor(joints)[None], exact))
+
+
+def test_2d_sketch_guides_the_projection(gen, text):
+    """A drawn pelvis path and keypose in a 3/4 view (the smoke model's own clip moved 0.3
+    image units sideways, arms lowered): the guidance brings the projection onto them."""
+    from physlab.motion.camera import Camera
+
+    cam = Camera(scale=1.0, pitch=20, yaw=40)
+    own = cam.project(gen(text, steps=STEPS, guidance_final=0, body_constraints=False))
+    path = own[:20, 0] + np.linspace(0, 0.3, 20)[:, None] * [1.0, 0.0]
+    key = own[0].copy()
+    key[16:] -= [0.0, 0.15]
+    kw = {"trajectories_2d": {"pelvis": path}, "keypose_2d": key, "camera": cam,
+          "steps": STEPS, "body_constraints": False}
+
+    def errors(**g):
+        q = cam.project(gen(text, **kw, **g))
+        return (np.linalg.norm(q[:20, 0] - path, axis=-1).mean(),
+                np.linalg.norm((q[0] - q[0, :1]) - (key - key[:1]), axis=-1).mean())
+
+    off = (np.linalg.norm(own[:20, 0] - path, axis=-1).mean(),
+           np.linalg.norm((own[0] - own[0, :1]) - (key - key[:1]), axis=-1).mean())
+    on = errors(guidance_final=20)
+    assert on[0] < 0.3 * off[0] and on[1] < 0.3 * off[1], (off, on)
+
+
+@pytest.mark.parametrize("kw, match", [
+    ({"trajectories_2d": {"pelvis": np.zeros((5, 2))}}, "need the camera they were drawn in"),
+    ({"keypose_2d": np.zeros((22, 3)), "camera": "front"}, r"keypose_2d must have shape \(22, 2\)"),
+    ({"trajectories_2d": {"tail": np.zeros((5, 2))}, "camera": None}, "unknown joint names"),
+    ({"trajectories_2d": {"pelvis": np.zeros((5, 3))}, "camera": None}, r"shape \(t_r, 2\)"),
+    ({"trajectories_2d": [np.zeros((5, 2))], "camera": None}, "must be a dict"),
+    ({"trajectories_2d": {"pelvis": np.zeros((5, 2))}, "trajectories_3d":
+      {"pelvis": np.zeros((5, 3))}, "cam": True}, "not both: pelvis"),
+    ({"keypose_2d": np.zeros((22, 2)), "keypose_3d": np.zeros((22, 3)), "cam": True},
+     "not both: keypose"),
+    ({"keypose_2d": np.zeros((22, 2)), "guidance_final": 0, "cam": True},
+     "act through the inference guidance"),
+])
+def test_bad_sketch_inputs(gen, text, kw, match):
+    from physlab.motion.camera import Camera
+
+    if kw.pop("cam", False):
+        kw["camera"] = Camera()
+    with pytest.raises((ValueError, TypeError), match=match):
+        gen(text, steps=STEPS, **kw)

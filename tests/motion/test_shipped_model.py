@@ -140,3 +140,25 @@ def test_text_only_motion_follows_the_action(gen):
     run, walk, bow = travel("a person runs"), travel("a person walks"), travel("a person bows")
     assert run > walk > bow, (run, walk, bow)
     assert bow < 0.5 and walk > 1.0, (run, walk, bow)
+
+
+def test_a_2d_sketch_steers_the_shipped_model_through_the_guidance(real_data, gen):
+    """Held-out windows projected in random storyboard views (supp. B ranges), pelvis path
+    and the first keypose drawn in 2D: the guidance (Eq. (16) + the 2D keypose term) brings
+    the projection much nearer the sketch than text only (measured on 8 windows, 50 steps:
+    pelvis path 0.126 -> 0.044 units, keypose 0.055 -> 0.008, and the 3D pelvis path
+    0.219 -> 0.173 m, depth being unseen)."""
+    from physlab.motion.camera import random_camera
+
+    data = held_out_windows(4)
+    e = []
+    for i in range(4):
+        cam = random_camera(i)
+        p = cam.project(data["joints"][i])
+        sketch = {"trajectories_2d": {"pelvis": p[:, 0]}, "keypose_2d": p[0], "camera": cam}
+        for kw in ({}, sketch):
+            q = cam.project(gen(data["text"][i], seed=i, steps=20, **kw))
+            e.append((np.linalg.norm(q[:, 0] - p[:, 0], axis=-1).mean(),
+                      np.linalg.norm((q[0] - q[0, :1]) - (p[0] - p[0, :1]), axis=-1).mean()))
+    text, drawn = np.array(e[0::2]).mean(0), np.array(e[1::2]).mean(0)
+    assert drawn[0] < text[0] / 2 and drawn[1] < text[1] / 3, (text, drawn)
