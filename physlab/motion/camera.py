@@ -31,7 +31,7 @@ import numpy as np
 from .skeleton import JOINT_NAMES, PARENTS, euler_to_matrix, topological_order
 
 __all__ = ["Camera", "to_pixels", "from_pixels", "random_camera", "perturb_proportions",
-           "perturb_joints", "BODY_PARTS", "PITCH_RANGE", "YAW_RANGE", "SCALE_RANGE",
+           "perturb_joints", "sketch_kwargs", "BODY_PARTS", "PITCH_RANGE", "YAW_RANGE", "SCALE_RANGE",
            "PROPORTION_RANGE", "JOINT_NOISE"]
 
 #: Sketch2Anim supp. B, camera view augmentation: pitch and yaw ranges (degrees), scale range;
@@ -221,3 +221,35 @@ def perturb_joints(points, rng=None, sigma=JOINT_NOISE):
     if not (np.isfinite(sigma) and sigma >= 0):
         raise ValueError(f"sigma must be a finite number >= 0, got {sigma!r}")
     return x + _rng(rng).normal(0.0, float(sigma), x.shape)
+
+
+def sketch_kwargs(condition, camera, rng=None, noise=0.0, proportions=None):
+    """A 3D condition (:class:`~physlab.motion.dataset.Condition`) as it would be drawn in
+    ``camera``'s view: the ``keypose_2d`` / ``trajectories_2d`` / ``camera`` / ``keypose_at``
+    keywords of :func:`physlab.motion.generate`, the points projected by :meth:`Camera.project`.
+
+    Parameters
+    ----------
+    condition : a Condition (``keypose`` (22, 3), ``key_frame``, ``trajectory`` (N, 6, 3),
+        ``mask`` (N, 6)).
+    camera : :class:`Camera`.
+    rng : seed or Generator for the augmentations.
+    noise : float >= 0, :func:`perturb_joints` sigma on every drawn point (supp. B: 0.02).
+    proportions : None or a factor range for :func:`perturb_proportions` of the keypose
+        (supp. B: :data:`PROPORTION_RANGE`).
+    """
+    from .dataset import TRAJECTORY_JOINT_NAMES
+
+    if not isinstance(camera, Camera):
+        raise TypeError(f"camera must be a physlab.motion.camera.Camera, got {camera!r}")
+    g = _rng(rng)
+    key = camera.project(condition.keypose)                                # (22, 2)
+    if proportions is not None:
+        key, _ = perturb_proportions(key, g, factor=proportions)
+    trajs = {name: camera.project(condition.trajectory[condition.mask[:, c], c])
+             for c, name in enumerate(TRAJECTORY_JOINT_NAMES) if condition.mask[:, c].any()}
+    if noise:
+        key = perturb_joints(key, g, noise)
+        trajs = {k: perturb_joints(v, g, noise) for k, v in trajs.items()}
+    return {"keypose_2d": key, "trajectories_2d": trajs, "camera": camera,
+            "keypose_at": "first" if condition.key_frame == 0 else "last"}

@@ -312,7 +312,9 @@ def _sample(gen, data, conds, controlled, steps, guidance, seed, progress, label
 
     out, total = [], 0.0
     for i in tqdm(range(len(conds)), desc=label, disable=not progress, leave=False):
-        kw = ({**conds[i].generator_kwargs(), **(options or UNGUIDED)} if controlled else {})
+        c = conds[i]
+        kw = ({**(c if isinstance(c, dict) else c.generator_kwargs()), **(options or UNGUIDED)}
+              if controlled else {})
         tic = time.perf_counter()
         out.append(gen(data["text"][i], seed=seed + i, guidance_scale=guidance, steps=steps,
                        body_constraints=body_constraints, foot_lock=foot_lock,
@@ -582,6 +584,91 @@ def format_adherence(res):
     return "\n".join(lines)
 
 
+# ----------------------------------------------------------------------------- 2D sketches
+
+#: Rows and columns of :func:`evaluate_sketch` (Table 1's 2D and 3D control errors).
+SKETCH_COLUMNS = {
+    "trajectory_error_2d": "traj. err.-2D ↓",
+    "keypose_mpjpe_2d": "keypose MPJPE-2D ↓",
+    "trajectory_error_3d": "traj. err.-3D (m) ↓",
+    "keypose_pose_3d": "keypose pose err. (m) ↓",
+    "foot_skating": "foot skating ↓",
+    "auj": "AUJ ↓",
+    "seconds_per_clip": "s / clip",
+}
+
+
+def sketch_metrics(motions, conds, cameras, seconds=0.0):
+    """Errors of clips against their conditions as drawn in ``cameras``: the average 2D
+    trajectory error (normalised image units, over all controlled frames and joints, as the
+    3D one) and the 2D keypose MPJPE (root-relative projected pose at the key frame, mean
+    over joints and clips), next to the 3D errors, skating and jerk of :func:`clip_metrics`."""
+    x = np.asarray(motions, dtype=float)
+    tj = list(TRAJECTORY_JOINTS)
+    d_sum, d_n, key = 0.0, 0, []
+    for xi, c, cam in zip(x, conds, cameras):
+        p, k = cam.project(xi), cam.project(c.keypose)
+        if c.mask.any():
+            d = np.linalg.norm(p[:, tj] - cam.project(c.trajectory), axis=-1)   # (N, 6)
+            d_sum, d_n = d_sum + d[c.mask].sum(), d_n + int(c.mask.sum())
+        kf = c.key_frame
+        key.append(np.linalg.norm((p[kf] - p[kf, :1]) - (k - k[:1]), axis=-1).mean())
+    row = clip_metrics(x, conds, seconds)
+    return {"trajectory_error_2d": d_sum / max(d_n, 1), "keypose_mpjpe_2d": float(np.mean(key)),
+            **{k: row[k] for k in SKETCH_COLUMNS if k in row}, "n_clips": row["n_clips"]}
+
+
+def evaluate_sketch(control, windows=64, steps=50, seed=0, noise=0.0, progress=True,
+                    data_root=None, out=None):
+    """The 2D path on held-out windows (Sketch2Anim Table 1's setting): each window's Cross
+    condition (:func:`eval_conditions`) is projected in a random storyboard view
+    (:func:`~physlab.motion.camera.random_camera`, supp. B ranges) and given to the generator
+    as a sketch (:func:`~physlab.motion.camera.sketch_kwargs`, optional joint noise). Rows:
+    real clips, text only, the sketch (until the 2D encoders of Sec. 5 are trained: the
+    inference guidance of Eq. (16) alone), and the same condition in 3D through the
+    networks + guidance for reference. Returns ``{row: metrics}`` (:data:`SKETCH_COLUMNS`)."""
+    from .camera import random_camera, sketch_kwargs
+    from .sampling import CONTROL_TEXT_GUIDANCE, TEXT_GUIDANCE
+
+    n = _check_windows(windows)
+    gen = _load(control, "--control")
+    data = held_out_windows(n, data_root=data_root)
+    conds = eval_conditions(data["joints"], seed=seed)
+    rng = np.random.default_rng(seed + 1)
+    cams = [random_camera(rng) for _ in conds]
+    kw = {"steps": int(steps), "seed": int(seed), "progress": progress}
+    rows = {"real clips": sketch_metrics(data["joints"], conds, cams)}
+    x, s = _sample(gen, data, conds, False, label="text only", guidance=TEXT_GUIDANCE, **kw)
+    rows["text only"] = sketch_metrics(x, conds, cams, s)
+    sketches = [sketch_kwargs(c, cam, rng=np.random.default_rng(seed + 2 + i), noise=noise)
+                for i, (c, cam) in enumerate(zip(conds, cams))]
+    x, s = _sample(gen, data, sketches, True, label="2D sketch", options=GUIDED,
+                   guidance=CONTROL_TEXT_GUIDANCE, **kw)
+    rows["2D sketch (guidance only)"] = sketch_metrics(x, conds, cams, s)
+    x, s = _sample(gen, data, conds, True, label="3D conditions", options=GUIDED,
+                   guidance=CONTROL_TEXT_GUIDANCE, **kw)
+    rows["3D conditions, networks + guidance"] = sketch_metrics(x, conds, cams, s)
+    if out is not None:
+        atomic_write_text(Path(out) / "sketch.md", format_sketch_table(rows, noise) + "\n")
+    return rows
+
+
+def format_sketch_table(rows, noise=0.0):
+    """Markdown table of :func:`evaluate_sketch`."""
+    head = ["method", *SKETCH_COLUMNS.values()]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for name, r in rows.items():
+        cells = ["—" if k == "seconds_per_clip" and name == "real clips"
+                 else f"{r[k]:.3f}" if k == "seconds_per_clip" else f"{r[k]:.4f}"
+                 for k in SKETCH_COLUMNS]
+        lines.append("| " + " | ".join([name, *cells]) + " |")
+    n = next(iter(rows.values()))["n_clips"]
+    lines += ["", f"{n} held-out windows, each Cross condition drawn in a random view (pitch "
+              f"0–30°, yaw ±45°, scale 0.8–1.2; joint noise σ = {noise:g}); 2D errors in "
+              f"normalised image units (1 = 1 m at scale 1)."]
+    return "\n".join(lines)
+
+
 # ----------------------------------------------------------------------------- CLI
 
 
@@ -628,6 +715,10 @@ def _parser():
     p.add_argument("--no-progress", action="store_true", help="no progress bars")
     p.add_argument("--no-body-constraints", action="store_true",
                    help="measure the networks' raw joints (no rigid-bone / floor projection)")
+    p.add_argument("--sketch", action="store_true",
+                   help="also evaluate the 2D path: each condition drawn in a random view")
+    p.add_argument("--sketch-noise", type=float, default=0.0,
+                   help="joint noise sigma of the drawn points (supp. B: 0.02)")
     p.add_argument("--no-foot-lock", action="store_true",
                    help="body constraints without the foot-contact lock")
     p.add_argument("--frequencies", type=int, default=None,
@@ -656,6 +747,12 @@ def main(argv=None):
                                    progress=not args.no_progress,
                                    data_root=args.data_root)
     print(format_table(rows))
+    if args.sketch:
+        print()
+        print(format_sketch_table(evaluate_sketch(
+            args.control, windows=args.windows, steps=args.steps, seed=args.seed,
+            noise=args.sketch_noise, progress=not args.no_progress, data_root=args.data_root,
+            out=args.out), args.sketch_noise))
     if adherence is not None:
         print()
         print(format_adherence(adherence))

@@ -7,7 +7,8 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from physlab.motion.camera import (BODY_PARTS, Camera, from_pixels, perturb_joints,
-                                   perturb_proportions, random_camera, to_pixels)
+                                   perturb_proportions, random_camera, sketch_kwargs,
+                                   to_pixels)
 from physlab.motion.skeleton import PARENTS
 
 
@@ -113,3 +114,22 @@ def test_joint_noise_has_the_asked_spread():
 def test_bad_input(call, match):
     with pytest.raises((ValueError, TypeError), match=match):
         call()
+
+
+def test_sketch_kwargs_project_the_condition():
+    from physlab.motion.dataset import condition_from_window
+
+    rng = np.random.default_rng(4)
+    w = rng.normal(size=(40, 22, 3))
+    cond = condition_from_window(w, t_r=12, keypose_at="last", joints=("pelvis", "head"))
+    cam = Camera(scale=0.9, pitch=25, yaw=-20)
+    kw = sketch_kwargs(cond, cam)
+    assert kw["camera"] == cam and kw["keypose_at"] == "last"
+    np.testing.assert_allclose(kw["keypose_2d"], cam.project(w[-1]), atol=1e-12)
+    assert set(kw["trajectories_2d"]) == {"pelvis", "head"}
+    np.testing.assert_allclose(kw["trajectories_2d"]["head"], cam.project(w[28:, 15]), atol=1e-12)
+    noisy = sketch_kwargs(cond, cam, rng=0, noise=0.02, proportions=(0.6, 1.6))
+    assert 0.005 < np.abs(noisy["trajectories_2d"]["pelvis"] - kw["trajectories_2d"]["pelvis"]
+                          ).mean() < 0.03
+    with pytest.raises(TypeError, match="camera must be"):
+        sketch_kwargs(cond, {"scale": 1})

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import torch
 
-from physlab.motion.dataset import BANDAI_NAMCO_ATTRIBUTION
+from physlab.motion.dataset import BANDAI_NAMCO_ATTRIBUTION, condition_from_window
 from physlab.motion.evaluate import (
     COLUMNS,
     MIN_T_R,
@@ -239,3 +239,39 @@ def test_text_adherence_structure_and_errors(ckpts, real_data):
         text_adherence(ckpts["control"], contents=("fly",), progress=False)
     with pytest.raises(ValueError, match="seeds"):
         text_adherence(ckpts["control"], seeds=0, progress=False)
+
+
+def test_sketch_evaluation_rows_and_cli(ckpts, tmp_path, capsys):
+    """The 2D path: rows and columns, real clips at zero error, the guided sketch nearer its
+    drawing than text only (even for the smoke model), sketch.md written by --sketch."""
+    from physlab.motion.evaluate import SKETCH_COLUMNS, evaluate_sketch
+
+    rows = evaluate_sketch(ckpts["control"], windows=3, steps=2, progress=False)
+    assert tuple(rows) == ("real clips", "text only", "2D sketch (guidance only)",
+                           "3D conditions, networks + guidance")
+    for r in rows.values():
+        assert set(SKETCH_COLUMNS) <= set(r) and all(math.isfinite(r[k]) for k in SKETCH_COLUMNS)
+    assert rows["real clips"]["trajectory_error_2d"] == 0 == rows["real clips"]["keypose_mpjpe_2d"]
+    sk, text = rows["2D sketch (guidance only)"], rows["text only"]
+    assert sk["trajectory_error_2d"] < 0.5 * text["trajectory_error_2d"], rows
+    out = tmp_path / "ev"
+    main(["--control", str(ckpts["control"]), "--windows", "3", "--steps", "1", "--sketch",
+          "--no-evaluator", "--out", str(out), "--no-progress"])
+    assert "| 2D sketch (guidance only) |" in capsys.readouterr().out
+    assert (out / "sketch.md").read_text().startswith("| method | traj. err.-2D")
+
+
+def test_sketch_metrics_analytic():
+    """A clip 0.1 m beside its drawn pelvis path in a front view: 2D error 0.1 scaled."""
+    from physlab.motion.camera import Camera
+    from physlab.motion.evaluate import sketch_metrics
+
+    x = np.zeros((40, 22, 3))
+    x[:, :, 2] = np.linspace(0, 2, 40)[:, None]
+    x[:, 1:, 1] = 0.5
+    cond = condition_from_window(x, t_r=10, keypose_at="first", joints=("pelvis",))
+    moved = x + [0.1, 0.0, 0.0]
+    r = sketch_metrics(moved[None], [cond], [Camera(scale=2.0)])
+    assert r["trajectory_error_2d"] == pytest.approx(0.2)
+    assert r["keypose_mpjpe_2d"] == pytest.approx(0.0, abs=1e-12)
+    assert r["trajectory_error_3d"] == pytest.approx(0.1)
