@@ -150,7 +150,8 @@ class TrainConfig:
     stage: str = "base"             # "base" (text denoiser) | "control" (ControlNet + adapter)
     out: str = ""                   # checkpoint path (atomic, rank 0); "" = runs/<stage>.pt
                                     # (runs/smoke_<stage>.pt with --smoke)
-    base_ckpt: str = ""             # control stage: the trained base checkpoint
+    base_ckpt: str = ""             # control stage: the trained base checkpoint (or a control
+                                    # checkpoint: its frozen base)
     resume: bool = True             # continue from `out` if it exists
     seed: int = 0                   # seeds data order, noise, dropout (rank r uses seed + r)
     steps: int = 6000               # optimiser steps in total (resume continues up to it)
@@ -427,9 +428,14 @@ def train(**kwargs):
     base_ckpt = None
     if cfg.stage == "control":
         base_ckpt = load_checkpoint(cfg.base_ckpt)
+        if base_ckpt["stage"] == "control":    # its frozen base: train another variant on it
+            base_ckpt = dict(base_ckpt, stage="base", model={
+                k[len("base."):]: v for k, v in base_ckpt["model"].items()
+                if k.startswith("base.")})
         if base_ckpt["stage"] != "base":
             raise ValueError(f"--base-ckpt {cfg.base_ckpt} is a '{base_ckpt['stage']}' "
-                             f"checkpoint; give the output of --stage base")
+                             f"checkpoint; give the output of --stage base (or a control "
+                             f"checkpoint, whose frozen base is then used)")
     src = resume or base_ckpt
     if src is not None:        # model config, stats, schedule and texts of the earlier run
         model_cfg = DenoiserConfig.from_dict(src["model_config"])

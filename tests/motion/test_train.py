@@ -208,8 +208,12 @@ def test_control_smoke(base_run, tmp_path):
     base = load_model(base_run["path"])["model"]
     sd = loaded["model"].base.state_dict()
     assert all(torch.equal(v, sd[k]) for k, v in base.state_dict().items())  # base frozen
-    with pytest.raises(ValueError, match="give the output of --stage base"):
-        train(stage="control", base_ckpt=str(out), out=str(tmp_path / "c2.pt"), **SMOKE)
+    # a control checkpoint as --base-ckpt: its frozen base (another variant on the same base)
+    single = train(stage="control", base_ckpt=str(out), out=str(tmp_path / "c2.pt"),
+                   single_controlnet=True, steps=1, **SMOKE)
+    sd2 = load_model(single["path"])["model"].base.state_dict()
+    assert all(torch.equal(v, sd2[k]) for k, v in base.state_dict().items())
+
 
 
 # ----------------------------------------------------------------------------- DDP
