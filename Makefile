@@ -23,7 +23,7 @@ help:
 	@echo "make test       set up .venv and run the whole suite (unit tests, executed lessons, browser test)"
 	@echo "make reproduce  execute every lesson headless, write figures to reports/"
 	@echo "make bench      run the benchmarks in benchmarks/"
-	@echo "make motion-model  retrain the shipped motion checkpoints in data/motion/ (~60 min, 2 cores)"
+	@echo "make motion-model  retrain the shipped motion checkpoints in data/motion/ (~75 min, 2 cores)"
 
 # (Re)install whenever pyproject.toml changes.
 $(STAMP): pyproject.toml
@@ -77,10 +77,11 @@ bench: $(STAMP)
 	$(PY) benchmarks/run_all.py
 
 # Retrains data/motion/*.pt (part 4, Sketch2Anim) from the Bandai-Namco clips in ../shared/data
-# (every take but the held-out 002), on 2 cores, ~60 min in all: the text-motion evaluator
+# (every take but the held-out 002), on 2 cores, ~75 min in all: the text-motion evaluator
 # (1000 steps, ~7 min on one thread), the text-conditioned base denoiser (5000 steps, ~10 min),
 # the trajectory ControlNet + keypose adapter on the frozen base (6000 steps, ~33 min) and the
-# single-ControlNet ablation (1500 steps, ~8 min). Resumable: rerun after an interruption.
+# single-ControlNet ablation (6000 steps, the same budget, ~23 min). Resumable: rerun after an
+# interruption.
 # Full-precision checkpoints stay in $(MOTION_RUNS); data/ gets the fp16 inference copies.
 MOTION_RUNS  ?= runs/motion
 MOTION_TRAIN := $(PY) -m physlab.motion.train --num-threads 2 --text-cache $(MOTION_RUNS)/text_cache.npz
@@ -95,7 +96,7 @@ motion-model: $(STAMP) motion-evaluator
 	$(MOTION_TRAIN) --stage base --steps 5000 --out $(MOTION_RUNS)/base.pt
 	$(MOTION_TRAIN) --stage control --steps 6000 --base-ckpt $(MOTION_RUNS)/base.pt \
 		--out $(MOTION_RUNS)/control.pt --export data/motion/sketch2anim_control.pt
-	$(MOTION_TRAIN) --stage control --single-controlnet --steps 1500 \
+	$(MOTION_TRAIN) --stage control --single-controlnet --steps 6000 \
 		--base-ckpt $(MOTION_RUNS)/base.pt --out $(MOTION_RUNS)/single_controlnet.pt \
 		--export data/motion/sketch2anim_single_controlnet.pt
 
