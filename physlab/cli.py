@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import argparse
 import base64
+import subprocess
 import sys
 import time
 from pathlib import Path
@@ -45,8 +46,12 @@ def execute_notebook(path, timeout=600, cwd=None):
     from nbclient import NotebookClient
 
     nb = nbformat.read(path, as_version=4)
+    # The kernel's own stdout/stderr (start-up warnings) go nowhere: when they were files
+    # that a test runner captures (pytest's fd capture), the run hung in the widget cell
+    # until the cell timeout. Cell output reaches the notebook through IOPub regardless.
     NotebookClient(nb, timeout=timeout, kernel_name="python3",
-                   resources={"metadata": {"path": str(cwd or Path(path).parent)}}).execute()
+                   resources={"metadata": {"path": str(cwd or Path(path).parent)}}).execute(
+        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     return nb
 
 
