@@ -28,6 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .dataset import TRAJECTORY_JOINT_NAMES
 from .skeleton import JOINT_NAMES, PARENTS, euler_to_matrix, topological_order
 
 __all__ = ["Camera", "to_pixels", "from_pixels", "random_camera", "perturb_proportions",
@@ -238,8 +239,6 @@ def sketch_kwargs(condition, camera, rng=None, noise=0.0, proportions=None):
     proportions : None or a factor range for :func:`perturb_proportions` of the keypose
         (supp. B: :data:`PROPORTION_RANGE`).
     """
-    from .dataset import TRAJECTORY_JOINT_NAMES
-
     if not isinstance(camera, Camera):
         raise TypeError(f"camera must be a physlab.motion.camera.Camera, got {camera!r}")
     g = _rng(rng)

@@ -604,17 +604,15 @@ def sketch_metrics(motions, conds, cameras, seconds=0.0):
     3D one) and the 2D keypose MPJPE (root-relative projected pose at the key frame, mean
     over joints and clips), next to the 3D errors, skating and jerk of :func:`clip_metrics`."""
     x = np.asarray(motions, dtype=float)
-    tj = list(TRAJECTORY_JOINTS)
-    d_sum, d_n, key = 0.0, 0, []
-    for xi, c, cam in zip(x, conds, cameras):
-        p, k = cam.project(xi), cam.project(c.keypose)
-        if c.mask.any():
-            d = np.linalg.norm(p[:, tj] - cam.project(c.trajectory), axis=-1)   # (N, 6)
-            d_sum, d_n = d_sum + d[c.mask].sum(), d_n + int(c.mask.sum())
-        kf = c.key_frame
-        key.append(np.linalg.norm((p[kf] - p[kf, :1]) - (k - k[:1]), axis=-1).mean())
+    p = np.stack([cam.project(xi) for xi, cam in zip(x, cameras)])            # (n, N, 22, 2)
+    masks = np.stack([c.mask for c in conds])
+    traj = (trajectory_error(p, np.stack([cam.project(c.trajectory) for c, cam
+                                          in zip(conds, cameras)]), TRAJECTORY_JOINTS, masks)
+            if masks.any() else 0.0)
+    key = [mpjpe(pi[c.key_frame], cam.project(c.keypose), root_relative=True)
+           for pi, c, cam in zip(p, conds, cameras)]
     row = clip_metrics(x, conds, seconds)
-    return {"trajectory_error_2d": d_sum / max(d_n, 1), "keypose_mpjpe_2d": float(np.mean(key)),
+    return {"trajectory_error_2d": traj, "keypose_mpjpe_2d": float(np.mean(key)),
             **{k: row[k] for k in SKETCH_COLUMNS if k in row}, "n_clips": row["n_clips"]}
 
 

@@ -42,13 +42,14 @@ SKATING_WINDOW = 5
 HUMANML3D_GT_PEAK_JERK = 0.033031363
 
 
-def _as_batch(joints, name="joints", min_frames=1):
+def _as_batch(joints, name="joints", min_frames=1, dims=(3,)):
     x = np.asarray(joints, dtype=float)
     single = x.ndim == 3
     if single:
         x = x[None]
-    if x.ndim != 4 or x.shape[-1] != 3:
-        raise ValueError(f"{name} must have shape (T, J, 3) or (B, T, J, 3), got "
+    if x.ndim != 4 or x.shape[-1] not in dims:
+        d = "|".join(str(k) for k in dims)
+        raise ValueError(f"{name} must have shape (T, J, {d}) or (B, T, J, {d}), got "
                          f"{np.shape(joints)}")
     if x.shape[1] < min_frames:
         raise ValueError(f"{name} needs at least {min_frames} frames, got {x.shape[1]}")
@@ -139,9 +140,9 @@ def mpjpe(pred, gt, frames=None, root_relative=False):
     float (m).
     """
     p, g = np.asarray(pred, dtype=float), np.asarray(gt, dtype=float)
-    if p.shape != g.shape or p.ndim < 2 or p.shape[-1] != 3:
-        raise ValueError(f"pred and gt must have the same shape (..., J, 3), got {p.shape} "
-                         f"and {g.shape}")
+    if p.shape != g.shape or p.ndim < 2 or p.shape[-1] not in (2, 3):
+        raise ValueError(f"pred and gt must have the same shape (..., J, 3) (or (..., J, 2) "
+                         f"for projected poses), got {p.shape} and {g.shape}")
     if not (np.all(np.isfinite(p)) and np.all(np.isfinite(g))):
         raise ValueError("pred or gt contains NaN or inf")
     if frames is not None:
@@ -152,8 +153,9 @@ def mpjpe(pred, gt, frames=None, root_relative=False):
         if np.any((fr < -T) | (fr >= T)):
             raise ValueError(f"frames {fr.tolist()} out of range for {T} frames")
         p, g = np.take(p, fr, axis=-3), np.take(g, fr, axis=-3)
-    if root_relative not in (True, False, "xz"):
-        raise ValueError(f"root_relative must be True, False or 'xz', got {root_relative!r}")
+    if root_relative not in (True, False, "xz") or (root_relative == "xz" and p.shape[-1] != 3):
+        raise ValueError(f"root_relative must be True, False or 'xz' (3D only), got "
+                         f"{root_relative!r}")
     if root_relative:
         keep = np.array([1.0, 0.0, 1.0]) if root_relative == "xz" else 1.0
         p, g = p - p[..., :1, :] * keep, g - g[..., :1, :] * keep
@@ -164,7 +166,8 @@ def trajectory_error(pred, gt, joints, mask):
     """Average 3D trajectory error (m) over the controlled frames and joints.
 
     ``sum_{t, k: mask} |pred[t, joints[k]] - gt[t, k]| / sum(mask)`` (OmniControl /
-    Sketch2Anim "Avg. Err.-3D").
+    Sketch2Anim "Avg. Err.-3D"; with projected ``(..., 2)`` joints and targets, "Avg.
+    Err.-2D" in image units).
 
     Parameters
     ----------
@@ -180,15 +183,15 @@ def trajectory_error(pred, gt, joints, mask):
     -------
     float (m). ValueError if ``mask`` selects nothing.
     """
-    p, _ = _as_batch(pred, name="pred")
+    p, _ = _as_batch(pred, name="pred", dims=(2, 3))
     B, T, J = p.shape[:3]
     idx = _joint_indices(joints, J)
     K = len(idx)
     g = np.asarray(gt, dtype=float)
     g = g[None] if g.ndim == 3 else g
-    if g.ndim != 4 or g.shape[-1] != 3 or g.shape[1] != T:
-        raise ValueError(f"gt must have shape (T, K, 3) or (B, T, K, 3) with T = {T}, got "
-                         f"{np.shape(gt)}")
+    if g.ndim != 4 or g.shape[-1] != p.shape[-1] or g.shape[1] != T:
+        raise ValueError(f"gt must have shape (T, K, {p.shape[-1]}) or (B, T, K, "
+                         f"{p.shape[-1]}) with T = {T}, got {np.shape(gt)}")
     if g.shape[2] != K and g.shape[2] == J:
         g = g[:, :, idx]
     if g.shape[2] != K:
@@ -197,7 +200,7 @@ def trajectory_error(pred, gt, joints, mask):
     m = m[None] if m.ndim == 2 else m
     try:
         m = np.broadcast_to(m, (B, T, K))
-        g = np.broadcast_to(g, (B, T, K, 3))
+        g = np.broadcast_to(g, (B, T, K, p.shape[-1]))
     except ValueError:
         raise ValueError(f"mask {np.shape(mask)} / gt {np.shape(gt)} do not match pred "
                          f"({B}, {T}) and K = {K} joints") from None

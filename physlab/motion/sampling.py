@@ -468,13 +468,11 @@ class Generator:
         gradients through the network, then predict again from the new ``z_t``. The network
         re-plans the whole body around the targets (no joint is dragged alone), at the cost
         of one forward and backward pass per iteration. Returns ``(z_t, network output)``."""
-        from .guidance import control_losses
+        from .guidance import control_losses, sketch_losses
 
         mean = torch.as_tensor(self.stats.mean, dtype=x.dtype)
         std = torch.as_tensor(self.stats.std, dtype=x.dtype)
         rep = self.config.representation
-        from .guidance import sketch_losses
-
         target_tr, target_key = joints_target if joints_target is not None else (None, None)
         has_traj = cond is not None and bool(cond["traj_mask"].any())
         has_key = cond is not None and bool(cond["keypose_mask"].any())

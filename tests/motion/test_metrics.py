@@ -218,3 +218,20 @@ def test_jerk_real(clips):
     assert pj == pytest.approx(0.0676, abs=0.001) and auj == pytest.approx(2.026, abs=0.01)
     auj_gt, pj_gt = jerk(w.joints, reference=HUMANML3D_GT_PEAK_JERK)
     assert pj_gt == pj and auj_gt == pytest.approx(0.804, abs=0.01)
+
+
+def test_mpjpe_and_trajectory_error_on_projected_2d_points():
+    """The same definitions on (..., 2) image points: analytic offsets."""
+    from physlab.motion.metrics import mpjpe, trajectory_error
+
+    p = np.zeros((10, 22, 2))
+    g = p + [0.3, 0.4]                                               # 0.5 everywhere
+    assert mpjpe(p, g) == pytest.approx(0.5)
+    assert mpjpe(p, g, root_relative=True) == pytest.approx(0.0)
+    mask = np.zeros((10, 2), bool)
+    mask[:4, 0] = True
+    assert trajectory_error(p, g[:, [0, 15]], (0, 15), mask) == pytest.approx(0.5)
+    with pytest.raises(ValueError, match="3D only"):
+        mpjpe(p, g, root_relative="xz")
+    with pytest.raises(ValueError, match=r"gt must have shape \(T, K, 2\)"):
+        trajectory_error(p, np.zeros((10, 2, 3)), (0, 15), mask)
