@@ -136,7 +136,9 @@ def _build(ckpt):
     base = MotionDenoiser(cfg)
     if ckpt["stage"] == "base":
         return base
-    return ControlledDenoiser(base, single_controlnet=ckpt["single_controlnet"])
+    sketch = any(k.startswith("sketch_traj_encoder.") for k in ckpt["model"])
+    return ControlledDenoiser(base, single_controlnet=ckpt["single_controlnet"],
+                              sketch_encoders=sketch)
 
 
 def load_model(path_or_ckpt):

@@ -25,6 +25,7 @@ from __future__ import annotations
 import csv
 import itertools
 import os
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -41,7 +42,7 @@ __all__ = [
     "TRAJECTORY_JOINT_NAMES", "JOINT_COMBINATIONS", "TEST_TAKES", "MotionClip", "Windows",
     "Condition", "bandai_namco_dir", "default_cache_dir", "read_labels", "load_clips",
     "action_text", "make_windows", "condition_from_window", "random_condition",
-    "split_by_take",
+    "split_by_take", "MIRROR_PERMUTATION", "mirror_joints", "mirror_text", "mirror_windows",
 ]
 
 BANDAI_NAMCO_ATTRIBUTION = ("Bandai-Namco-Research-Motiondataset, CC BY-NC 4.0, © 2022 Bandai "
@@ -379,6 +380,64 @@ def make_windows(clips, length=40, stride=10, drop_short=True):
     return Windows(joints=np.stack(out["joints"]), text=out["text"], content=out["content"],
                    style=out["style"], clip_id=out["clip_id"],
                    start=np.array(out["start"], dtype=int), fps=float(fps))
+
+
+# ----------------------------------------------------------------------------- mirroring
+
+
+def _mirror_permutation():
+    """Index of each joint's mirror image (``left_x`` <-> ``right_x``; others themselves)."""
+    swap = {"left": "right", "right": "left"}
+    perm = []
+    for name in JOINT_NAMES:
+        side, _, rest = name.partition("_")
+        perm.append(JOINT_NAMES.index(f"{swap[side]}_{rest}") if side in swap else
+                    JOINT_NAMES.index(name))
+    return tuple(perm)
+
+
+#: ``joints[..., MIRROR_PERMUTATION, :]`` swaps the left and right joints.
+MIRROR_PERMUTATION = _mirror_permutation()
+
+
+def mirror_joints(joints):
+    """Mirror image of windows in the canonical frame: ``x -> -x`` and left / right joints
+    swapped (:data:`MIRROR_PERMUTATION`); the facing direction ``+z`` is kept. joints :
+    (..., 22, 3) array or torch tensor; returns the same type and shape (no torch import
+    here: a tensor is recognised by its ``new_tensor`` method)."""
+    sign = [-1.0, 1.0, 1.0]
+    if hasattr(joints, "new_tensor"):
+        return joints[..., list(MIRROR_PERMUTATION), :] * joints.new_tensor(sign)
+    x = np.asarray(joints)
+    return x[..., list(MIRROR_PERMUTATION), :] * np.asarray(sign, dtype=x.dtype)
+
+
+_LEFT_RIGHT = re.compile(r"\b(left|right)\b")
+
+
+def mirror_text(text):
+    """The text (or content label) of the mirrored motion: the words "left" and "right"
+    swapped ("a person waves the left hand" -> "a person waves the right hand",
+    ``"walk-left"`` -> ``"walk-right"``); other texts unchanged."""
+    return _LEFT_RIGHT.sub(lambda m: "right" if m.group(1) == "left" else "left", text)
+
+
+def mirror_windows(windows):
+    """The windows followed by their mirror images (mirror augmentation).
+
+    Each mirrored window is :func:`mirror_joints` of the original (still canonical: frame 0
+    pelvis at the origin facing ``+z``), with :func:`mirror_text` of its text and content
+    ("walks to the left" becomes "walks to the right", a right-hand wave a left-hand wave)
+    and ``clip_id + "/mirror"``. Returns a new :class:`Windows` of twice the length."""
+    if not isinstance(windows, Windows):
+        raise TypeError(f"windows must be a Windows (make_windows), got "
+                        f"{type(windows).__name__}")
+    return Windows(joints=np.concatenate([windows.joints, mirror_joints(windows.joints)]),
+                   text=list(windows.text) + [mirror_text(t) for t in windows.text],
+                   content=list(windows.content) + [mirror_text(c) for c in windows.content],
+                   style=list(windows.style) * 2,
+                   clip_id=list(windows.clip_id) + [f"{c}/mirror" for c in windows.clip_id],
+                   start=np.concatenate([windows.start, windows.start]), fps=windows.fps)
 
 
 # ----------------------------------------------------------------------------- conditions

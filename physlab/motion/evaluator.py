@@ -55,7 +55,6 @@ import argparse
 import dataclasses
 import math
 import os
-import re
 import sys
 import time
 from dataclasses import dataclass
@@ -68,7 +67,8 @@ import torch.nn.functional as F
 
 from .checkpoint import (CHECKPOINT_KIND, CHECKPOINT_VERSION, export_weights, load_checkpoint,
                          save_checkpoint)
-from .dataset import (BANDAI_NAMCO_ATTRIBUTION, TEST_TAKES, load_clips, make_windows,
+from .dataset import (MIRROR_PERMUTATION, mirror_joints, mirror_text,  # noqa: F401
+                      BANDAI_NAMCO_ATTRIBUTION, TEST_TAKES, load_clips, make_windows,
                       read_labels, split_by_take)
 from .skeleton import JOINT_NAMES
 from .train import warmup_cosine_lr
@@ -94,21 +94,6 @@ FEATURE_DIM = 3 + 3 + 63
 #: Model of ``--smoke`` runs: a few seconds on a CPU.
 SMOKE_MODEL = {"d_model": 32, "n_heads": 2, "n_layers": 1, "ff": 64, "embed_dim": 16,
                "text_hidden": 32, "dropout": 0.0}
-
-
-def _mirror_permutation():
-    """Index of each joint's mirror image (``left_x`` <-> ``right_x``; others themselves)."""
-    swap = {"left": "right", "right": "left"}
-    perm = []
-    for name in JOINT_NAMES:
-        side, _, rest = name.partition("_")
-        perm.append(JOINT_NAMES.index(f"{swap[side]}_{rest}") if side in swap else
-                    JOINT_NAMES.index(name))
-    return tuple(perm)
-
-
-#: ``joints[..., MIRROR_PERMUTATION, :]`` swaps the left and right joints.
-MIRROR_PERMUTATION = _mirror_permutation()
 
 
 # ----------------------------------------------------------------------------- config
@@ -254,26 +239,6 @@ def motion_features(joints):
     rel = (x[:, :, 1:] - root[:, :, None]).reshape(N, T, -1)                  # (N, T, 63)
     v_root = torch.cat([torch.zeros_like(root[:, :1]), root[:, 1:] - root[:, :-1]], dim=1)
     return torch.cat([root, v_root, rel], dim=-1)                             # (N, T, 69)
-
-
-def mirror_joints(joints):
-    """Mirror image of windows in the canonical frame: ``x -> -x`` and left / right joints
-    swapped (:data:`MIRROR_PERMUTATION`); the facing direction ``+z`` is kept. joints :
-    (..., 22, 3) array or tensor; returns the same type and shape."""
-    sign = [-1.0, 1.0, 1.0]
-    if torch.is_tensor(joints):
-        return joints[..., list(MIRROR_PERMUTATION), :] * joints.new_tensor(sign)
-    x = np.asarray(joints)
-    return x[..., list(MIRROR_PERMUTATION), :] * np.asarray(sign, dtype=x.dtype)
-
-
-_LEFT_RIGHT = re.compile(r"\b(left|right)\b")
-
-
-def mirror_text(text):
-    """The text of the mirrored motion: the words "left" and "right" swapped ("a person
-    waves the left hand" -> "a person waves the right hand"); other texts unchanged."""
-    return _LEFT_RIGHT.sub(lambda m: "right" if m.group(1) == "left" else "left", text)
 
 
 # ----------------------------------------------------------------------------- networks

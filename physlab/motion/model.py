@@ -79,6 +79,10 @@ __all__ = [
     "KeyposeAdapter",
     "KeyposeEncoder",
     "MotionDenoiser",
+    "SketchKeyposeEncoder",
+    "camera_features",
+    "sketch_trajectory_encoder",
+    "sketch_trajectory_frames",
     "TrajectoryControlNet",
     "check_condition",
     "count_parameters",
@@ -483,6 +487,70 @@ class KeyposeEncoder(nn.Module):
         return self.out(e.mean(dim=1) + self.frame(key_frame))             # (B, C)
 
 
+#: Numbers describing a storyboard camera to the 2D encoders (:func:`camera_features`).
+CAMERA_FEATURES = 7
+#: Transformer blocks in each 2D encoder (the 3D ones have ``cond_layers`` = 1): lifting a
+#: drawing needs more than reading 3D points.
+SKETCH_LAYERS = 2
+
+
+def camera_features(camera):
+    """``(B, 4)`` cameras ``[scale, pitch, yaw, roll]`` (degrees, :class:`~physlab.motion.
+    camera.Camera`) -> ``(B, 7)`` inputs of the 2D encoders: ``scale - 1`` and the sine and
+    cosine of each angle (continuous over the angle's whole range)."""
+    if camera.ndim != 2 or camera.shape[-1] != 4:
+        raise ValueError(f"camera must have shape (B, 4) = [scale, pitch, yaw, roll], got "
+                         f"{tuple(camera.shape)}")
+    ang = torch.deg2rad(camera[:, 1:])
+    return torch.cat([camera[:, :1] - 1.0, torch.sin(ang), torch.cos(ang)], dim=-1)
+
+
+def sketch_trajectory_frames(trajectory_2d, mask, camera):
+    """``(B, N, 6, 2)`` drawn trajectories, ``(B, N, 6)`` mask and ``(B, 4)`` cameras ->
+    ``(B, N, 6*2 + 6 + 7)`` per-frame input of ``E^2D_tr`` (points zeroed where the mask is
+    False; the camera's :func:`camera_features` repeated on every frame)."""
+    m = mask.to(trajectory_2d.dtype)
+    traj = (trajectory_2d * m[..., None]).flatten(2)                       # (B, N, 12)
+    cam = camera_features(camera)[:, None].expand(-1, mask.shape[1], -1)   # (B, N, 7)
+    return torch.cat([traj, m, cam], dim=-1)
+
+
+class SketchKeyposeEncoder(nn.Module):
+    """``E^2D_k`` (Sec. 5): a drawn keypose ``(B, 22, 2)`` (normalised image units), its key
+    frame ``(B,)`` and the camera ``(B, 4)`` -> ``(B, C)``, trained to land on the 3D keypose
+    encoder's embedding of the same pose (Eqs. (10)–(13)).
+
+    The pose is made pelvis-relative in both image axes (a drawing's placement says nothing
+    of the pose), each joint is a token of its 2D position and the :func:`camera_features`
+    plus a learned joint embedding; :data:`SKETCH_LAYERS` blocks mix them, then mean-pooling,
+    a key-frame embedding and an output layer, as in :class:`KeyposeEncoder`."""
+
+    def __init__(self, cfg: DenoiserConfig):
+        super().__init__()
+        C = cfg.d_model
+        self.inp = nn.Linear(2 + CAMERA_FEATURES, C)
+        self.joint = nn.Parameter(torch.randn(1, N_JOINTS, C) * 0.02)
+        self.frame = nn.Embedding(cfg.n_joint_frames, C)
+        self.blocks = nn.ModuleList([Block(C, cfg.n_heads, cfg.ff, cfg.dropout)
+                                     for _ in range(SKETCH_LAYERS)])
+        self.out = nn.Linear(C, C)
+
+    def forward(self, keypose_2d, key_frame, camera):                      # (B, J, 2), (B,), (B, 4)
+        rel = keypose_2d - keypose_2d[:, :1]
+        cam = camera_features(camera)[:, None].expand(-1, N_JOINTS, -1)    # (B, J, 7)
+        e = self.inp(torch.cat([rel, cam], dim=-1)) + self.joint           # (B, J, C)
+        for block in self.blocks:
+            e = block(e)
+        return self.out(e.mean(dim=1) + self.frame(key_frame))             # (B, C)
+
+
+def sketch_trajectory_encoder(cfg: DenoiserConfig):
+    """``E^2D_tr`` (Sec. 5): a :class:`FrameConditionEncoder` over
+    :func:`sketch_trajectory_frames` with :data:`SKETCH_LAYERS` blocks."""
+    return FrameConditionEncoder(2 * N_TRAJ + N_TRAJ + CAMERA_FEATURES,
+                                 dataclasses.replace(cfg, cond_layers=SKETCH_LAYERS))
+
+
 def unified_frames(trajectory, mask, keypose, key_frame, keypose_mask=None):
     """Single-ControlNet condition (Table 2): trajectory, mask, the keypose written into its
     frame (``K_3D``, zeros elsewhere) and a one-hot key frame: ``(B, N, 24 + 66 + 1)``
@@ -527,6 +595,21 @@ def check_condition(cond, batch, n_joint_frames):
     kf = cond["key_frame"]
     if kf.is_floating_point() or (kf.numel() and (int(kf.min()) < 0 or int(kf.max()) >= N)):
         raise ValueError(f"cond['key_frame'] must hold integer frame indices in 0..{N - 1}")
+    sketch = {"trajectory_2d": (batch, N, N_TRAJ, 2), "traj_mask_2d": (batch, N, N_TRAJ),
+              "keypose_2d": (batch, N_JOINTS, 2), "camera": (batch, 4)}
+    given = [k for k in sketch if k in cond]
+    if given:
+        if "camera" not in cond:
+            raise ValueError("cond has 2D conditions but no 'camera' (B, 4) = [scale, pitch, "
+                             "yaw, roll]: a drawing needs the view it was drawn in")
+        if ("trajectory_2d" in cond) != ("traj_mask_2d" in cond):
+            raise ValueError("cond needs 'trajectory_2d' and 'traj_mask_2d' together")
+        for k in given:
+            if tuple(cond[k].shape) != sketch[k]:
+                raise ValueError(f"cond[{k!r}] must have shape {sketch[k]}, got "
+                                 f"{tuple(cond[k].shape)}")
+            if cond[k].dtype != torch.bool and not torch.isfinite(cond[k]).all():
+                raise ValueError(f"cond[{k!r}] contains NaN or inf")
 
 
 #: Std (times 1/sqrt(C)) of the initial weights of the ControlNet's output layers Z_i in
@@ -557,7 +640,11 @@ class TrajectoryControlNet(nn.Module):
 
     def forward(self, x_t, t, text_emb, frames, drop_text=None):
         """``frames`` (B, N, F) per-frame condition -> list of residuals (B, 1+T, C)."""
-        e = self.cond_encoder(frames)                                      # (B, T, C)
+        return self.from_embedding(x_t, t, text_emb, self.cond_encoder(frames), drop_text)
+
+    def from_embedding(self, x_t, t, text_emb, e, drop_text=None):
+        """Residuals from a condition embedding ``e`` (B, T, C) (``E_tr(T)`` or, aligned with
+        it, ``E^2D_tr`` of a drawing)."""
         h = self.encoder.tokens(x_t, t, text_emb, drop_text, motion_extra=e)  # Eq. (1) z'_t
         return [z(o) for z, o in zip(self.zero, self.encoder.run_blocks(h))]
 
@@ -579,7 +666,12 @@ class KeyposeAdapter(nn.Module):
 
     def forward(self, x_t, t, text_emb, keypose, key_frame, residuals, drop_text=None,
                 keypose_mask=None):
-        k = self.keypose_encoder(keypose, key_frame)                       # (B, C)  E_k(K)
+        return self.from_embedding(x_t, t, text_emb, self.keypose_encoder(keypose, key_frame),
+                                   residuals, drop_text, keypose_mask)
+
+    def from_embedding(self, x_t, t, text_emb, k, residuals, drop_text=None,
+                       keypose_mask=None):
+        """Residuals ``r'`` from a keypose embedding ``k`` (B, C) (``E_k(K)`` or ``E^2D_k``)."""
         if keypose_mask is not None:                                       # no keypose: a' = a
             k = k * keypose_mask.to(k.dtype)[:, None]
         h = self.encoder.tokens(x_t, t, text_emb, drop_text, cond_extra=k)  # Eq. (2) a'
@@ -597,11 +689,17 @@ class ControlledDenoiser(nn.Module):
         mode so its dropout is off).
     single_controlnet : bool, the Table 2 "Single ControlNet" ablation: one ControlNet over
         the unified trajectory + keypose matrix (:func:`unified_frames`), no adapter.
-    traj_encoder, keypose_encoder : optional replacements of ``E_tr`` / ``E_k`` (e.g. 2D).
+    traj_encoder, keypose_encoder : optional replacements of ``E_tr`` / ``E_k``.
+    sketch_encoders : bool, also build the 2D encoders ``E^2D_tr``
+        (:func:`sketch_trajectory_encoder`) and ``E^2D_k`` (:class:`SketchKeyposeEncoder`)
+        of Sec. 5 (attributes ``sketch_traj_encoder``, ``sketch_keypose_encoder``; trained by
+        ``physlab.motion.train --stage align`` with everything else frozen). A condition dict
+        with ``trajectory_2d`` / ``keypose_2d`` (:func:`check_condition`) is then encoded by
+        them instead of the 3D encoders (:meth:`condition_embeddings`).
     """
 
     def __init__(self, base: MotionDenoiser, single_controlnet=False, traj_encoder=None,
-                 keypose_encoder=None):
+                 keypose_encoder=None, sketch_encoders=False):
         super().__init__()
         self.config = base.config
         self.single_controlnet = bool(single_controlnet)
@@ -627,6 +725,49 @@ class ControlledDenoiser(nn.Module):
                     z.weight.normal_(0.0, CONTROLNET_INIT_STD / math.sqrt(z.in_features),
                                      generator=g)
         self.base.eval()
+        self.sketch_traj_encoder = self.sketch_keypose_encoder = None
+        if sketch_encoders:
+            self.add_sketch_encoders()
+
+    def add_sketch_encoders(self):
+        """Build untrained 2D encoders ``E^2D_tr`` and ``E^2D_k`` (Sec. 5); returns them."""
+        if self.single_controlnet:
+            raise ValueError("the single-ControlNet ablation has no 2D encoders; align the "
+                             "ControlNet + adapter model")
+        self.sketch_traj_encoder = sketch_trajectory_encoder(self.config)
+        self.sketch_keypose_encoder = SketchKeyposeEncoder(self.config)
+        return self.sketch_traj_encoder, self.sketch_keypose_encoder
+
+    @property
+    def has_sketch_encoders(self):
+        return self.sketch_traj_encoder is not None
+
+    def condition_embeddings(self, cond):
+        """``(e_tr, e_k)``: the trajectory embedding (B, T, C) and the keypose embedding
+        (B, C) of a condition dict — from the 3D encoders ``E_tr``, ``E_k`` or, for the 2D
+        entries ``trajectory_2d`` / ``keypose_2d`` when given, from the aligned 2D encoders
+        (which see ``camera``). These are the ``s^3D`` / ``s^2D`` of Eqs. (10) and (12)."""
+        if self.single_controlnet:
+            raise ValueError("the single-ControlNet ablation encodes its unified condition "
+                             "matrix in one piece; condition_embeddings is for the "
+                             "ControlNet + adapter model")
+        sketch = "trajectory_2d" in cond or "keypose_2d" in cond
+        if sketch and not self.has_sketch_encoders:
+            raise ValueError("this model has no 2D encoders (train them with `python -m "
+                             "physlab.motion.train --stage align`); give 3D conditions or "
+                             "draw through the inference guidance")
+        if "trajectory_2d" in cond:
+            e_tr = self.sketch_traj_encoder(sketch_trajectory_frames(
+                cond["trajectory_2d"], cond["traj_mask_2d"], cond["camera"]))
+        else:
+            e_tr = self.controlnet.cond_encoder(trajectory_frames(cond["trajectory"],
+                                                                  cond["traj_mask"]))
+        if "keypose_2d" in cond:
+            e_k = self.sketch_keypose_encoder(cond["keypose_2d"], cond["key_frame"],
+                                              cond["camera"])
+        else:
+            e_k = self.adapter.keypose_encoder(cond["keypose"], cond["key_frame"])
+        return e_tr, e_k
 
     def train(self, mode=True):
         super().train(mode)
@@ -645,7 +786,8 @@ class ControlledDenoiser(nn.Module):
             frames = unified_frames(traj, mask, cond["keypose"], cond["key_frame"], km)
             res = self.controlnet(x_t, t, text_emb, frames, drop_text)
         else:
-            r = self.controlnet(x_t, t, text_emb, trajectory_frames(traj, mask), drop_text)
-            res = self.adapter(x_t, t, text_emb, cond["keypose"], cond["key_frame"], r,
-                               drop_text, keypose_mask=km)                  # r'
+            e_tr, e_k = self.condition_embeddings(cond)
+            r = self.controlnet.from_embedding(x_t, t, text_emb, e_tr, drop_text)
+            res = self.adapter.from_embedding(x_t, t, text_emb, e_k, r, drop_text,
+                                              keypose_mask=km)              # r'
         return self.base(x_t, t, text_emb, drop_text, residuals=res)        # Eq. (4)

@@ -320,6 +320,34 @@ class Generator:
         """True if the checkpoint accepts keypose / trajectory conditions."""
         return isinstance(self.model, ControlledDenoiser)
 
+    @property
+    def has_sketch_encoders(self):
+        """True if the checkpoint has the aligned 2D encoders of Sec. 5 (stage ``align``):
+        drawn conditions then go through the network, not only through the guidance."""
+        return self.has_control and self.model.has_sketch_encoders
+
+    def _sketch_condition(self, cond, c, sk, camera):
+        """The network's condition for a drawing (:meth:`~physlab.motion.model.
+        ControlledDenoiser.condition_embeddings`): the 3D dict ``cond`` plus the drawn
+        keypose and trajectories and the camera. 3D trajectories of other joints are projected
+        into the drawing (``E^2D_tr`` reads one picture; the guidance still holds them in
+        3D); a 3D keypose keeps the 3D keypose encoder."""
+        out = dict(cond)
+        out["camera"] = torch.tensor([[camera.scale, camera.pitch, camera.yaw, camera.roll]],
+                                     dtype=torch.float32)
+        if sk["has_trajectory"]:
+            traj, mask = sk["trajectory"].copy(), sk["traj_mask"].copy()
+            m3 = c["traj_mask"]
+            if m3.any():
+                traj[m3] = camera.project(c["trajectory"][m3])
+                mask |= m3
+            out["trajectory_2d"] = torch.tensor(traj, dtype=torch.float32)[None]
+            out["traj_mask_2d"] = torch.tensor(mask)[None]
+        if sk["has_keypose"]:
+            out["keypose_2d"] = torch.tensor(sk["keypose"], dtype=torch.float32)[None]
+            out["keypose_mask"] = torch.tensor([True])
+        return out
+
     @contextlib.contextmanager
     def _frequencies(self, k):
         """Inside the block the denoiser's output basis keeps ``k`` DCT frequencies (None:
@@ -461,13 +489,15 @@ class Generator:
         return a.sqrt() * eps - (1 - a).sqrt() * x0g                      # v
 
     def _guide_network(self, x, t, a, cond, w, joints_target, iters, optimizer="lbfgs",
-                       w_c=1.0, sketch=None):
+                       w_c=1.0, sketch=None, net_cond=None):
         """Sketch2Anim's inference guidance (supp. C, Eq. (15), in 3D): move the noisy sample
         ``z_t`` itself so that the network's clean estimate ``x̂₀(z_t)`` meets the conditions,
         ``z_t ← argmin G(x̂₀(z_t))`` by ``iters`` L-BFGS iterations (or Adam steps) with
         gradients through the network, then predict again from the new ``z_t``. The network
         re-plans the whole body around the targets (no joint is dragged alone), at the cost
-        of one forward and backward pass per iteration. Returns ``(z_t, network output)``."""
+        of one forward and backward pass per iteration. ``net_cond``: the condition the
+        network sees, if it differs from the 3D ``cond`` the losses read (a drawing through the
+        2D encoders). Returns ``(z_t, network output)``."""
         from .guidance import control_losses, sketch_losses
 
         mean = torch.as_tensor(self.stats.mean, dtype=x.dtype)
@@ -477,10 +507,11 @@ class Generator:
         has_traj = cond is not None and bool(cond["traj_mask"].any())
         has_key = cond is not None and bool(cond["keypose_mask"].any())
         z = x.detach().clone().requires_grad_(True)
+        net_cond = cond if net_cond is None else net_cond
 
         def closure():
             z.grad = None
-            x0, _ = self.scheduler.split_output(self._predict(z, t, a, cond, w, w_c), z, t)
+            x0, _ = self.scheduler.split_output(self._predict(z, t, a, net_cond, w, w_c), z, t)
             g = z.new_zeros(())
             if has_traj:
                 g = g + control_losses(x0, target_tr, cond, mean, std, rep)[0]   # Eq. (6)
@@ -495,7 +526,7 @@ class Generator:
         with torch.enable_grad():
             _minimise(closure, [z], iters, optimizer, FIRST_ORDER_LR["network"])
         z = z.detach()
-        return z, self._predict(z, t, a, cond, w, w_c)
+        return z, self._predict(z, t, a, net_cond, w, w_c)
 
     def __call__(self, action, keypose_3d=None, keypose_at="first", trajectories_3d=None,
                  seed=0, guidance_scale=None, steps=50, method="ddim", return_features=False,
@@ -558,10 +589,12 @@ class Generator:
         keypose_2d, trajectories_2d, camera : a sketch (:func:`build_sketch`): a (22, 2)
             keypose and/or ``{joint_name: (t_r, 2)}`` trajectories in the normalised image
             coordinates of ``camera`` (:class:`~physlab.motion.camera.Camera`), placed like
-            the 3D ones by ``keypose_at``. Until the 2D encoders of Sec. 5 are trained they act
-            through the inference guidance only (Eqs. (15)–(16) with a 2D keypose term), so
-            they need ``guidance_final`` or ``inference_guidance`` > 0; they may be mixed with
-            3D conditions of other joints.
+            the 3D ones by ``keypose_at``. A checkpoint with the aligned 2D encoders of
+            Sec. 5 (:attr:`has_sketch_encoders`) feeds them to the ControlNet and adapter
+            (:meth:`_sketch_condition`), and the inference guidance (Eqs. (15)–(16), with a 2D
+            keypose term) sharpens them; without the encoders they act through the guidance
+            only, so they need ``guidance_final`` or ``inference_guidance`` > 0. They may be
+            mixed with 3D conditions of other joints.
 
         Returns
         -------
@@ -574,7 +607,9 @@ class Generator:
             raise ValueError(f"keypose_at must be 'first' or 'last', got {keypose_at!r}")
         if guidance_scale is None:
             guidance_scale = (CONTROL_TEXT_GUIDANCE if keypose_3d is not None
-                              or trajectories_3d else TEXT_GUIDANCE)
+                              or trajectories_3d or (self.has_sketch_encoders and (
+                                  keypose_2d is not None or trajectories_2d))
+                              else TEXT_GUIDANCE)
         if (isinstance(guidance_scale, bool) or not isinstance(guidance_scale, (int, float))
                 or not math.isfinite(guidance_scale) or not 0 <= guidance_scale <= MAX_GUIDANCE):
             raise ValueError(f"guidance_scale must be a number in [0, {MAX_GUIDANCE:g}] "
@@ -624,10 +659,12 @@ class Generator:
             raise ValueError(f"give each condition in 3D or in 2D, not both: "
                              f"{'keypose' if not both else ', '.join(both)} has both")
         drawn = sk["has_keypose"] or sk["has_trajectory"]
-        if drawn and not (guidance_final > 0 or inference_guidance > 0):
-            raise ValueError("keypose_2d / trajectories_2d act through the inference guidance "
-                             "(the 2D encoders are not trained yet): keep guidance_final > 0 "
-                             "or inference_guidance > 0")
+        encoded = drawn and self.has_sketch_encoders          # the network reads the drawing
+        if drawn and not encoded and not (guidance_final > 0 or inference_guidance > 0):
+            raise ValueError(f"{self.path} has no 2D encoders (Sec. 5; `python -m "
+                             f"physlab.motion.train --stage align`), so keypose_2d / "
+                             f"trajectories_2d act through the inference guidance only: keep "
+                             f"guidance_final > 0 or inference_guidance > 0")
         controlled = c["has_keypose"] or c["has_trajectory"]
         K = self.config.smooth_basis
         if frequencies is None:
@@ -646,13 +683,18 @@ class Generator:
                              f"the keypose and trajectories")
 
         a = torch.tensor(self.text_cache.get(action), dtype=torch.float32)[None]   # (1, 384)
-        cond = None
-        if controlled:
+        cond = None                 # the 3D conditions (the network's, and the guidance's)
+        if controlled or encoded:
             cond = {"trajectory": torch.tensor(c["trajectory"], dtype=torch.float32)[None],
                     "traj_mask": torch.tensor(c["traj_mask"])[None],
                     "keypose": torch.tensor(c["keypose"], dtype=torch.float32)[None],
                     "key_frame": torch.tensor([c["key_frame"]], dtype=torch.int64),
                     "keypose_mask": torch.tensor([c["has_keypose"]])}
+        net_cond = cond
+        if encoded:                 # the drawing through E^2D_tr / E^2D_k (Sec. 5)
+            net_cond = self._sketch_condition(cond, c, sk, camera)
+            if not controlled:
+                cond = None
         target = None
         if cond is not None and (inference_guidance > 0 or guidance_final > 0):
             # the loss functions read targets from (1, N, 22, 3) joints: write the keypose
@@ -692,9 +734,10 @@ class Generator:
                 iters = guidance_final if final else inference_guidance
                 if guided and iters > 0 and not final and guidance_space == "network":
                     x, out = self._guide_network(x, t_in, a, cond, w, target, iters,
-                                                 guidance_optimizer, w_c, sketch)  # Eq. (15)
+                                                 guidance_optimizer, w_c, sketch,
+                                                 net_cond)                  # Eq. (15)
                 else:
-                    out = self._predict(x, t_in, a, cond, w, w_c)           # x̂₀ / ε̂ / v̂
+                    out = self._predict(x, t_in, a, net_cond, w, w_c)       # x̂₀ / ε̂ / v̂
                     if guided and iters > 0:
                         out = self._guide(out, x, t_in, cond, target, iters,
                                           float(guidance_proximity),

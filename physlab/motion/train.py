@@ -89,6 +89,7 @@ import torch.nn.functional as F
 from .dataset import (
     load_clips,
     make_windows,
+    mirror_windows,
     random_condition,
     read_labels,
     split_by_take,
@@ -104,6 +105,7 @@ from .model import (
 from .skeleton import JOINT_NAMES
 from .checkpoint import (CHECKPOINT_KIND, CHECKPOINT_VERSION, export_weights,  # noqa: F401
                          load_checkpoint, load_model, save_checkpoint)
+from .align import alignment_losses, sketch_batch
 from .guidance import control_losses  # noqa: F401 - part of this module's API
 from .text import hash_encoder  # noqa: F401 - part of this module's API
 
@@ -140,6 +142,8 @@ DEFAULT_REPRESENTATION = "absolute"
 DEFAULT_SMOOTH_BASIS = 16
 
 #: Model of ``--smoke`` runs: a few seconds on a CPU.
+#: Training stages: the text denoiser, its ControlNet + keypose adapter, the 2D encoders.
+STAGES = ("base", "control", "align")
 SMOKE_MODEL = {"d_model": 32, "n_heads": 2, "n_layers": 2, "ff": 64, "dropout": 0.0}
 
 
@@ -148,6 +152,7 @@ class TrainConfig:
     """Training settings; saved in the checkpoint."""
 
     stage: str = "base"             # "base" (text denoiser) | "control" (ControlNet + adapter)
+                                    # | "align" (2D encoders of Sec. 5, on a control checkpoint)
     out: str = ""                   # checkpoint path (atomic, rank 0); "" = runs/<stage>.pt
                                     # (runs/smoke_<stage>.pt with --smoke)
     base_ckpt: str = ""             # control stage: the trained base checkpoint (or a control
@@ -170,6 +175,11 @@ class TrainConfig:
                                     # only), so any subset of conditions can be given
     drop_trajectory: float = 0.1    # p(no trajectory) (keypose only); never both
     single_controlnet: bool = False  # Table 2 ablation: one ControlNet for both conditions
+    lambda_match: float = 1.0       # align stage, Eq. (13): weight of L_match (Eq. 10; 0 = off)
+    lambda_recon: float = 1.0       # λ_r: weight of L_recon (Eq. 11; 0 = off, and cheaper)
+    lambda_contrast: float = 1.0    # λ_c: weight of L_contrast (Eq. 12; 0 = off)
+    tau: float = 0.1                # τ₁ of Eq. (12)
+    sketch_noise: float = 0.02      # align stage: joint noise of the drawings (supp. B)
     scheduler: str = "mld"          # noise schedule, a key of SCHEDULERS
     prediction: str = "sample"      # network output: "sample" (x0, MDM; default) |
                                     # "epsilon" (Sketch2Anim) | "v_prediction"; module doc
@@ -178,14 +188,15 @@ class TrainConfig:
     data_root: str = ""             # Bandai-Namco folder; "" = <external data>/mocap/bandai_namco
     max_clips: int = 0              # use only the first k training clips (0 = all)
     window_stride: int = 10         # frames between window starts (40-frame windows)
+    mirror: bool = False            # add every window's mirror image (dataset.mirror_windows)
     text_encoder: str = "minilm"    # "minilm" (text.ActionEncoder) | "hash" (tests: fake)
     text_cache: str = ""            # optional EmbeddingCache .npz to read / fill
     smoke: bool = False             # tiny model, few steps, few clips: seconds
     progress: bool = True           # tqdm bar on rank 0
 
     def __post_init__(self):
-        if self.stage not in ("base", "control"):
-            raise ValueError(f"stage must be 'base' or 'control', got {self.stage!r}")
+        if self.stage not in STAGES:
+            raise ValueError(f"stage must be one of {STAGES}, got {self.stage!r}")
         if self.scheduler not in SCHEDULERS:
             raise ValueError(f"scheduler must be one of {sorted(SCHEDULERS)}, got "
                              f"{self.scheduler!r}")
@@ -200,7 +211,8 @@ class TrainConfig:
                 raise ValueError(f"{name} must be >= 1, got {getattr(self, name)}")
         for name in ("lr", "min_lr", "weight_decay", "grad_clip", "lambda_tr", "lambda_key",
                      "lambda_vel", "warmup", "seed", "num_threads", "max_clips",
-                     "cond_drop_prob", "drop_keypose", "drop_trajectory"):
+                     "cond_drop_prob", "drop_keypose", "drop_trajectory", "lambda_match",
+                     "lambda_recon", "lambda_contrast", "tau", "sketch_noise"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
                 raise ValueError(f"{name} must be a finite number, got {v!r}")
@@ -228,6 +240,19 @@ class TrainConfig:
             raise ValueError(f"steps must be <= 10,000,000, got {self.steps}")
         if self.stage == "control" and not self.base_ckpt:
             raise ValueError("stage 'control' needs --base-ckpt <checkpoint of stage 'base'>")
+        if self.stage == "align" and not self.base_ckpt:
+            raise ValueError("stage 'align' needs --base-ckpt <checkpoint of stage 'control'> "
+                             "(the generator whose 3D encoders the 2D ones learn to match)")
+        for name in ("tau",):
+            if not getattr(self, name) > 0:
+                raise ValueError(f"{name} must be > 0, got {getattr(self, name)}")
+        for name in ("lambda_match", "lambda_recon", "lambda_contrast", "sketch_noise"):
+            if getattr(self, name) < 0:
+                raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
+        if self.stage == "align" and not (self.lambda_match or self.lambda_recon
+                                          or self.lambda_contrast):
+            raise ValueError("stage 'align' needs at least one of --lambda-match, "
+                             "--lambda-recon, --lambda-contrast > 0")
 
 
 # ----------------------------------------------------------------------------- data
@@ -275,6 +300,8 @@ def prepare_data(cfg: TrainConfig, stats: FeatureStats | None = None, cache=None
     clips = load_clips(root, clip_ids=ids)
     train_clips, _ = split_by_take(clips) if ids is None else (clips, None)
     win = make_windows(train_clips, length=40, stride=cfg.window_stride)
+    if cfg.mirror:
+        win = mirror_windows(win)
     feats = np.stack([encode_motion(w, representation, fps=win.fps)
                       for w in win.joints])                       # (N, 39, 137) | (N, 40, 70)
     if stats is None:
@@ -426,6 +453,16 @@ def train(**kwargs):
         raise ValueError(f"{out} holds a '{resume['stage']}' checkpoint but --stage is "
                          f"'{cfg.stage}'; use another --out")
     base_ckpt = None
+    if cfg.stage == "align":
+        if ddp:
+            raise ValueError("stage 'align' runs in one process (its 2D encoders are small); "
+                             "start it with python, not torchrun")
+        base_ckpt = load_checkpoint(cfg.base_ckpt)
+        if base_ckpt["stage"] not in ("control", "align") or base_ckpt["single_controlnet"]:
+            raise ValueError(f"--base-ckpt {cfg.base_ckpt} is a '{base_ckpt['stage']}'"
+                             f"{' single-ControlNet' if base_ckpt.get('single_controlnet') else ''}"
+                             f" checkpoint; stage 'align' needs the ControlNet + adapter "
+                             f"model of --stage control")
     if cfg.stage == "control":
         base_ckpt = load_checkpoint(cfg.base_ckpt)
         if base_ckpt["stage"] == "control":    # its frozen base: train another variant on it
@@ -471,6 +508,16 @@ def train(**kwargs):
     base = MotionDenoiser(model_cfg)
     if cfg.stage == "base":
         model = base
+    elif cfg.stage == "align":
+        model = ControlledDenoiser(base, sketch_encoders=True)
+        weights = {k: v.float() for k, v in base_ckpt["model"].items()
+                   if not k.startswith("sketch_")}
+        missing, unexpected = model.load_state_dict(weights, strict=False)
+        if unexpected or any(not k.startswith("sketch_") for k in missing):
+            raise ValueError(f"--base-ckpt {cfg.base_ckpt} does not fit a ControlNet + adapter "
+                             f"model: missing {missing[:3]}, unexpected {unexpected[:3]}")
+        for name, p in model.named_parameters():
+            p.requires_grad_(name.startswith("sketch_"))
     else:
         base.load_state_dict(base_ckpt["model"])
         model = ControlledDenoiser(base, single_controlnet=cfg.single_controlnet)
@@ -492,6 +539,10 @@ def train(**kwargs):
                   f"random streams restart", file=sys.stderr)
     net = torch.nn.parallel.DistributedDataParallel(model) if ddp else model
     model.train()
+    if cfg.stage == "align":                 # the generator is frozen: no dropout in it either
+        model.eval()
+        model.sketch_traj_encoder.train()
+        model.sketch_keypose_encoder.train()
 
     mean = torch.tensor(stats.mean, dtype=torch.float32)
     std = torch.tensor(stats.std, dtype=torch.float32)
@@ -542,6 +593,14 @@ def train(**kwargs):
                     l_vel = velocity_loss(sched.split_output(out_, x_t, t)[0], x0)
                     loss = loss + cfg.lambda_vel * l_vel
                     parts = {"vel": l_vel.item()}
+            elif cfg.stage == "align":
+                cond = condition_batch(joints_np[idx.numpy()], rng, cfg.min_t_r)
+                sketch = sketch_batch(cond, rng, noise=cfg.sketch_noise)
+                terms = alignment_losses(model, x_t, t, a, cond, sketch, target, drop,
+                                         tau=cfg.tau, recon=cfg.lambda_recon > 0)
+                loss = (cfg.lambda_match * terms["match"] + cfg.lambda_recon * terms["recon"]
+                        + cfg.lambda_contrast * terms["contrast"])                # Eq. (13)
+                parts = {k: v.item() for k, v in terms.items()}
             else:
                 cond = condition_batch(joints_np[idx.numpy()], rng, cfg.min_t_r,
                                        cfg.drop_keypose, cfg.drop_trajectory)

@@ -163,6 +163,29 @@ def test_make_windows_real(clips):
     assert np.all(np.isfinite(w.joints))
 
 
+def test_mirror_windows_commutes_with_canonicalisation(clips):
+    """Mirroring a canonical window must equal cutting the windows of the mirrored clip
+    (reflected in the world, left / right swapped): canonicalisation commutes with the
+    reflection, so mirrored windows are canonical training windows of a real motion."""
+    w = make_windows(clips, length=40)
+    m = D.mirror_windows(w)
+    n = len(w)
+    assert len(m) == 2 * n and m.fps == w.fps
+    np.testing.assert_array_equal(m.joints[:n], w.joints)
+    world = [MotionClip(clip_id=c.clip_id, dataset=c.dataset, content=c.content, style=c.style,
+                        take=c.take, joints=D.mirror_joints(c.joints), fps=c.fps)
+             for c in clips]
+    np.testing.assert_allclose(m.joints[n:], make_windows(world, length=40).joints, atol=1e-9)
+    np.testing.assert_allclose(m.joints[n:, 0, 0, [0, 2]], 0.0, atol=1e-12)
+    assert np.abs(root_heading(m.joints[n:, :1].reshape(-1, 22, 3))).max() < 1e-9
+    assert m.text[n:] == [D.mirror_text(t) for t in w.text]
+    assert "a person waves the left hand energetically" in m.text[n:]
+    assert set(m.content[n:]) == {"walk", "bow", "wave-left-hand"}
+    assert m.clip_id[n] == w.clip_id[0] + "/mirror" and m.style == w.style * 2
+    with pytest.raises(TypeError, match="windows must be a Windows"):
+        D.mirror_windows(w.joints)
+
+
 # ----------------------------------------------------------------------------- conditions
 
 

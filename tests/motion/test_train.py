@@ -1,5 +1,6 @@
 """Tests of physlab.motion.train: losses, conditions, checkpoints (save / load / resume /
 corrupt), the smoke runs of both stages on a few Bandai-Namco clips, and DDP with gloo."""
+import dataclasses
 import os
 import socket
 import subprocess
@@ -10,12 +11,14 @@ import numpy as np
 import pytest
 import torch
 
-from physlab.motion.dataset import TRAJECTORY_JOINTS, condition_from_window
+from physlab.motion.dataset import (MIRROR_PERMUTATION, TRAJECTORY_JOINTS,
+                                    condition_from_window, mirror_text)
 from physlab.motion.features import FeatureStats, joints_to_features
 from physlab.motion.model import ControlledDenoiser, MotionDenoiser
 from physlab.motion.train import (
     TrainConfig,
     condition_batch,
+    prepare_data,
     control_losses,
     export_weights,
     hash_encoder,
@@ -216,6 +219,37 @@ def test_control_smoke(base_run, tmp_path):
 
 
 
+def test_align_smoke_trains_only_the_2d_encoders(base_run, tmp_path):
+    control = train(stage="control", base_ckpt=str(base_run["path"]),
+                    out=str(tmp_path / "control.pt"), steps=2, **SMOKE)
+    out = tmp_path / "align.pt"
+    res = train(stage="align", base_ckpt=str(control["path"]), out=str(out), steps=2, **SMOKE)
+    assert res["step"] == 2 and np.isfinite(res["loss"])
+    loaded = load_model(out)
+    model = loaded["model"]
+    assert isinstance(model, ControlledDenoiser) and model.has_sketch_encoders
+    assert loaded["stage"] == "align"
+    n_sketch = sum(p.numel() for n, p in model.named_parameters() if n.startswith("sketch_"))
+    assert res["n_trainable"] == n_sketch > 0
+    before = load_model(control["path"])["model"].state_dict()
+    after = model.state_dict()
+    assert all(torch.equal(v, after[k]) for k, v in before.items())        # generator frozen
+    assert train(stage="align", base_ckpt=str(control["path"]), out=str(out), steps=3,
+                 **SMOKE)["step"] == 3                                      # resumes
+    ab = train(stage="align", base_ckpt=str(control["path"]), out=str(tmp_path / "ab.pt"),
+               steps=1, lambda_recon=0.0, **SMOKE)                          # Table A2 variant
+    assert np.isfinite(ab["loss"])
+    with pytest.raises(ValueError, match="needs the ControlNet \\+ adapter model"):
+        train(stage="align", base_ckpt=str(base_run["path"]), out=str(tmp_path / "x.pt"),
+              steps=1, **SMOKE)
+    with pytest.raises(ValueError, match="at least one of"):
+        TrainConfig(stage="align", base_ckpt="c.pt", lambda_match=0, lambda_recon=0,
+                    lambda_contrast=0)
+    with pytest.raises(ValueError, match="needs --base-ckpt"):
+        TrainConfig(stage="align")
+
+
+
 # ----------------------------------------------------------------------------- DDP
 
 
@@ -276,3 +310,17 @@ def test_smooth_basis_needs_x0_prediction(tmp_path):
     with pytest.raises(ValueError, match="--smooth-basis 8 needs --prediction sample"):
         train(stage="base", smoke=True, progress=False, out=str(tmp_path / "b.pt"),
               representation="absolute", smooth_basis=8, prediction="epsilon")
+
+
+def test_mirror_augmentation_doubles_the_windows_and_mirrors_the_texts(real_data):
+    kw = {"max_clips": 3, "text_encoder": "hash", "progress": False}
+    plain = prepare_data(TrainConfig(**kw), representation="absolute")
+    both = prepare_data(TrainConfig(mirror=True, **kw), representation="absolute")
+    n = len(plain["x0"])
+    assert both["x0"].shape == (2 * n, *plain["x0"].shape[1:])
+    np.testing.assert_array_equal(both["joints"][:n], plain["joints"])
+    np.testing.assert_allclose(both["joints"][n:, ..., 0],
+                               -plain["joints"][:, :, list(MIRROR_PERMUTATION), 0])
+    texts = [both["texts"][i] for i in both["text_index"][n:]]
+    assert texts == [mirror_text(plain["texts"][i]) for i in plain["text_index"]]
+    assert dataclasses.asdict(TrainConfig(mirror=True))["mirror"] is True  # saved in the ckpt
