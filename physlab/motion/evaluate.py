@@ -616,54 +616,131 @@ def sketch_metrics(motions, conds, cameras, seconds=0.0):
             **{k: row[k] for k in SKETCH_COLUMNS if k in row}, "n_clips": row["n_clips"]}
 
 
+#: Protocols of the 2D table (Sketch2Anim Table 1): ``cross`` — each window a random subset
+#: of the six trajectory joints (:func:`eval_conditions`); ``average`` — one joint per window,
+#: the six in turn (the table reports the mean over joints).
+SKETCH_PROTOCOLS = ("cross", "average")
+
+
+def sketch_conditions(joints, protocol="cross", seed=0):
+    """The held-out conditions of the 2D table (:data:`SKETCH_PROTOCOLS`)."""
+    if protocol not in SKETCH_PROTOCOLS:
+        raise ValueError(f"protocol must be one of {SKETCH_PROTOCOLS}, got {protocol!r}")
+    if protocol == "cross":
+        return eval_conditions(joints, seed=seed)
+    rng = np.random.default_rng(seed)
+    out = []
+    for i, w in enumerate(joints):
+        t_r = int(rng.integers(MIN_T_R, len(w) + 1))
+        out.append(condition_from_window(w, t_r=t_r, keypose_at="first" if i % 2 == 0
+                                         else "last",
+                                         joints=(TRAJECTORY_JOINTS[i % len(TRAJECTORY_JOINTS)],)))
+    return out
+
+
 def evaluate_sketch(control, windows=64, steps=50, seed=0, noise=0.0, progress=True,
-                    data_root=None, out=None):
-    """The 2D path on held-out windows (Sketch2Anim Table 1's setting): each window's Cross
-    condition (:func:`eval_conditions`) is projected in a random storyboard view
-    (:func:`~physlab.motion.camera.random_camera`, supp. B ranges) and given to the generator
-    as a sketch (:func:`~physlab.motion.camera.sketch_kwargs`, optional joint noise). Rows:
-    real clips, text only, the sketch (until the 2D encoders of Sec. 5 are trained: the
-    inference guidance of Eq. (16) alone), and the same condition in 3D through the
-    networks + guidance for reference. Returns ``{row: metrics}`` (:data:`SKETCH_COLUMNS`)."""
+                    data_root=None, out=None, protocol="cross", lifter=None, direct_2d=None,
+                    retrieval=False, evaluator=None, guidance_only=False):
+    """The 2D path on held-out windows (Sketch2Anim Table 1's setting): each window's
+    condition (:func:`sketch_conditions`) is projected in a random storyboard view
+    (:func:`~physlab.motion.camera.random_camera`, supp. B ranges) and given as a sketch
+    (:func:`~physlab.motion.camera.sketch_kwargs`, optional joint noise).
+
+    Rows: real clips, text only; optional baselines — ``retrieval`` (:class:`~physlab.
+    motion.baselines.MotionRetrieval` over the training windows), ``lifter`` (path of the
+    lift-and-control lifter: networks only and + guidance), ``direct_2d`` (path of a
+    ``--direct-2d`` control checkpoint: networks only and + guidance); then ``control``:
+    with its 2D encoders (stage ``align``) networks only and + guidance, and (``guidance_only``
+    or no encoders) the 3D generator driven by the 2D guidance alone; and the same condition
+    in 3D through the networks + guidance for reference.
+
+    Returns ``{row: metrics}`` (:data:`SKETCH_COLUMNS`, plus the evaluator's columns when
+    ``evaluator`` is given: ``"default"`` or a path)."""
     from .camera import random_camera, sketch_kwargs
     from .sampling import CONTROL_TEXT_GUIDANCE, TEXT_GUIDANCE
 
     n = _check_windows(windows)
     gen = _load(control, "--control")
     data = held_out_windows(n, data_root=data_root)
-    conds = eval_conditions(data["joints"], seed=seed)
+    conds = sketch_conditions(data["joints"], protocol, seed=seed)
     rng = np.random.default_rng(seed + 1)
     cams = [random_camera(rng) for _ in conds]
     kw = {"steps": int(steps), "seed": int(seed), "progress": progress}
-    rows = {"real clips": sketch_metrics(data["joints"], conds, cams)}
+    text_motion = _text_motion_metrics(evaluator, data, seed)
+
+    def metrics(x, s=0.0):
+        return {**sketch_metrics(x, conds, cams, s), **text_motion(x)}
+
+    rows = {"real clips": metrics(data["joints"])}
     x, s = _sample(gen, data, conds, False, label="text only", guidance=TEXT_GUIDANCE, **kw)
-    rows["text only"] = sketch_metrics(x, conds, cams, s)
+    rows["text only"] = metrics(x, s)
     sketches = [sketch_kwargs(c, cam, rng=np.random.default_rng(seed + 2 + i), noise=noise)
                 for i, (c, cam) in enumerate(zip(conds, cams))]
-    x, s = _sample(gen, data, sketches, True, label="2D sketch", options=GUIDED,
-                   guidance=CONTROL_TEXT_GUIDANCE, **kw)
-    rows["2D sketch (guidance only)"] = sketch_metrics(x, conds, cams, s)
+    if retrieval:
+        from .baselines import MotionRetrieval
+
+        db = (retrieval if isinstance(retrieval, MotionRetrieval)
+              else MotionRetrieval.from_training_data(data_root))
+        tic = time.perf_counter()
+        x = np.stack([db(t, **k) for t, k in zip(data["text"], sketches)])
+        rows["retrieval"] = metrics(x, (time.perf_counter() - tic) / len(x))
+    if lifter is not None:
+        from .baselines import lift, load_lifter
+
+        net = load_lifter(lifter)
+        lifted = []
+        for k in sketches:
+            k3, t3 = lift(net, **k)
+            lifted.append({"keypose_3d": k3, "trajectories_3d": t3,
+                           "keypose_at": k["keypose_at"]})
+        for suffix, options in (("", UNGUIDED), (" + guidance", GUIDED)):
+            x, s = _sample(gen, data, lifted, True, label="lift-and-control" + suffix,
+                           options=options, guidance=CONTROL_TEXT_GUIDANCE, **kw)
+            rows["lift-and-control" + suffix] = metrics(x, s)
+    variants = []
+    if direct_2d is not None:
+        variants.append(("direct 2D", _load(direct_2d, "--direct-2d")))
+    if gen.has_sketch_encoders:
+        variants.append(("physlab (2D encoders)", gen))
+    for name, g in variants:
+        if not g.has_sketch_encoders:
+            raise ValueError(f"{name}: {g.path} has no 2D encoders")
+        for suffix, options in (("", UNGUIDED), (" + guidance", GUIDED)):
+            x, s = _sample(g, data, sketches, True, label=name + suffix, options=options,
+                           guidance=CONTROL_TEXT_GUIDANCE, **kw)
+            rows[name + suffix] = metrics(x, s)
+    if guidance_only or not gen.has_sketch_encoders:
+        x, s = _sample(gen, data, [{**k, "sketch_encoders": False} for k in sketches], True,
+                       label="2D guidance only", options=GUIDED,
+                       guidance=CONTROL_TEXT_GUIDANCE, **kw)
+        rows["3D generator, 2D guidance only"] = metrics(x, s)
     x, s = _sample(gen, data, conds, True, label="3D conditions", options=GUIDED,
                    guidance=CONTROL_TEXT_GUIDANCE, **kw)
-    rows["3D conditions, networks + guidance"] = sketch_metrics(x, conds, cams, s)
+    rows["3D conditions, networks + guidance"] = metrics(x, s)
     if out is not None:
-        atomic_write_text(Path(out) / "sketch.md", format_sketch_table(rows, noise) + "\n")
+        atomic_write_text(Path(out) / f"sketch_{protocol}.md",
+                          format_sketch_table(rows, noise, protocol) + "\n")
+        atomic_write_text(Path(out) / f"sketch_{protocol}.json", json.dumps(
+            {"rows": rows, "protocol": protocol, "noise": noise, "windows": len(conds),
+             "seed": int(seed), "attribution": BANDAI_NAMCO_ATTRIBUTION}, indent=1))
     return rows
 
 
-def format_sketch_table(rows, noise=0.0):
+def format_sketch_table(rows, noise=0.0, protocol="cross"):
     """Markdown table of :func:`evaluate_sketch`."""
-    head = ["method", *SKETCH_COLUMNS.values()]
+    names = {**SKETCH_COLUMNS, **EVALUATOR_COLUMNS}
+    keys = [k for k in names if rows and all(k in r for r in rows.values())]
+    head = ["method", *(names[k] for k in keys)]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for name, r in rows.items():
         cells = ["—" if k == "seconds_per_clip" and name == "real clips"
                  else f"{r[k]:.3f}" if k == "seconds_per_clip" else f"{r[k]:.4f}"
-                 for k in SKETCH_COLUMNS]
+                 for k in keys]
         lines.append("| " + " | ".join([name, *cells]) + " |")
     n = next(iter(rows.values()))["n_clips"]
-    lines += ["", f"{n} held-out windows, each Cross condition drawn in a random view (pitch "
-              f"0–30°, yaw ±45°, scale 0.8–1.2; joint noise σ = {noise:g}); 2D errors in "
-              f"normalised image units (1 = 1 m at scale 1)."]
+    lines += ["", f"{n} held-out windows, {protocol} protocol, each condition drawn in a random "
+              f"view (pitch 0–30°, yaw ±45°, scale 0.8–1.2; joint noise σ = {noise:g}); 2D "
+              f"errors in normalised image units (1 = 1 m at scale 1)."]
     return "\n".join(lines)
 
 
@@ -717,6 +794,18 @@ def _parser():
                    help="also evaluate the 2D path: each condition drawn in a random view")
     p.add_argument("--sketch-noise", type=float, default=0.0,
                    help="joint noise sigma of the drawn points (supp. B: 0.02)")
+    p.add_argument("--protocol", choices=[*SKETCH_PROTOCOLS, "both"], default="cross",
+                   help="conditions of the 2D table (default cross)")
+    p.add_argument("--retrieval", action="store_true",
+                   help="2D table: add the motion-retrieval baseline (training windows)")
+    p.add_argument("--lifter", default=None,
+                   help="2D table: add lift-and-control with this lifter checkpoint")
+    p.add_argument("--direct-2d", default=None,
+                   help="2D table: add the direct 2D baseline (train --direct-2d checkpoint)")
+    p.add_argument("--guidance-only", action="store_true",
+                   help="2D table: add the 3D generator driven by the 2D guidance alone")
+    p.add_argument("--no-3d", action="store_true",
+                   help="skip the 3D table (with --sketch: only the 2D one)")
     p.add_argument("--no-foot-lock", action="store_true",
                    help="body constraints without the foot-contact lock")
     p.add_argument("--frequencies", type=int, default=None,
@@ -729,7 +818,7 @@ def main(argv=None):
     """Command-line entry point: prints the table; returns the rows. A missing checkpoint or a
     bad value raises (``python -m`` / ``physlab evaluate motion`` print it as one line, exit 2)."""
     args = _parser().parse_args(argv)
-    rows = evaluate(args.control, single_controlnet=args.single_controlnet,
+    rows = {} if args.no_3d else evaluate(args.control, single_controlnet=args.single_controlnet,
                     windows=args.windows, steps=args.steps, guidance=args.guidance,
                     control_guidance=args.control_guidance,
                     seed=args.seed, out=args.out, progress=not args.no_progress,
@@ -744,17 +833,24 @@ def main(argv=None):
                                    steps=args.steps, guidance=args.guidance,
                                    progress=not args.no_progress,
                                    data_root=args.data_root)
-    print(format_table(rows))
+    if rows:
+        print(format_table(rows))
     if args.sketch:
-        print()
-        print(format_sketch_table(evaluate_sketch(
-            args.control, windows=args.windows, steps=args.steps, seed=args.seed,
-            noise=args.sketch_noise, progress=not args.no_progress, data_root=args.data_root,
-            out=args.out), args.sketch_noise))
+        evaluator = None if args.no_evaluator else args.evaluator
+        protocols = SKETCH_PROTOCOLS if args.protocol == "both" else (args.protocol,)
+        for protocol in protocols:
+            print()
+            print(format_sketch_table(evaluate_sketch(
+                args.control, windows=args.windows, steps=args.steps, seed=args.seed,
+                noise=args.sketch_noise, progress=not args.no_progress,
+                data_root=args.data_root, out=args.out, protocol=protocol,
+                lifter=args.lifter, direct_2d=args.direct_2d, retrieval=args.retrieval,
+                evaluator=evaluator, guidance_only=args.guidance_only),
+                args.sketch_noise, protocol))
     if adherence is not None:
         print()
         print(format_adherence(adherence))
-    if args.out is not None:
+    if args.out is not None and rows:
         print(f"wrote {args.out / 'table.md'} and {args.out / 'rows.json'}")
         if adherence is not None:
             atomic_write_text(args.out / "adherence.md", format_adherence(adherence) + "\n")

@@ -533,7 +533,8 @@ class Generator:
                  progress=False, inference_guidance=0, guidance_final=40,
                  guidance_proximity=0.01, body_constraints=True, guidance_space="x0",
                  guidance_optimizer="lbfgs", condition_scale=1.0, foot_lock=True,
-                 frequencies=None, keypose_2d=None, trajectories_2d=None, camera=None):
+                 frequencies=None, keypose_2d=None, trajectories_2d=None, camera=None,
+                 sketch_encoders=True):
         """Generate one 40-frame motion.
 
         Parameters
@@ -595,6 +596,8 @@ class Generator:
             keypose term) sharpens them; without the encoders they act through the guidance
             only, so they need ``guidance_final`` or ``inference_guidance`` > 0. They may be
             mixed with 3D conditions of other joints.
+        sketch_encoders : bool, let the 2D encoders read a drawing when the checkpoint has
+            them (False: guidance only, for comparisons).
 
         Returns
         -------
@@ -606,10 +609,10 @@ class Generator:
         if keypose_at not in KEYPOSE_AT:
             raise ValueError(f"keypose_at must be 'first' or 'last', got {keypose_at!r}")
         if guidance_scale is None:
+            read_2d = bool(self.has_sketch_encoders and sketch_encoders
+                           and (keypose_2d is not None or trajectories_2d))
             guidance_scale = (CONTROL_TEXT_GUIDANCE if keypose_3d is not None
-                              or trajectories_3d or (self.has_sketch_encoders and (
-                                  keypose_2d is not None or trajectories_2d))
-                              else TEXT_GUIDANCE)
+                              or trajectories_3d or read_2d else TEXT_GUIDANCE)
         if (isinstance(guidance_scale, bool) or not isinstance(guidance_scale, (int, float))
                 or not math.isfinite(guidance_scale) or not 0 <= guidance_scale <= MAX_GUIDANCE):
             raise ValueError(f"guidance_scale must be a number in [0, {MAX_GUIDANCE:g}] "
@@ -659,7 +662,9 @@ class Generator:
             raise ValueError(f"give each condition in 3D or in 2D, not both: "
                              f"{'keypose' if not both else ', '.join(both)} has both")
         drawn = sk["has_keypose"] or sk["has_trajectory"]
-        encoded = drawn and self.has_sketch_encoders          # the network reads the drawing
+        if not isinstance(sketch_encoders, (bool, np.bool_)):
+            raise TypeError(f"sketch_encoders must be True or False, got {sketch_encoders!r}")
+        encoded = drawn and self.has_sketch_encoders and bool(sketch_encoders)
         if drawn and not encoded and not (guidance_final > 0 or inference_guidance > 0):
             raise ValueError(f"{self.path} has no 2D encoders (Sec. 5; `python -m "
                              f"physlab.motion.train --stage align`), so keypose_2d / "

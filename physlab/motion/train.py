@@ -175,6 +175,8 @@ class TrainConfig:
                                     # only), so any subset of conditions can be given
     drop_trajectory: float = 0.1    # p(no trajectory) (keypose only); never both
     single_controlnet: bool = False  # Table 2 ablation: one ControlNet for both conditions
+    direct_2d: bool = False         # control stage on drawn (projected) conditions through 2D
+                                    # encoders from the start: Table 1's direct 2D baseline
     lambda_match: float = 1.0       # align stage, Eq. (13): weight of L_match (Eq. 10; 0 = off)
     lambda_recon: float = 1.0       # λ_r: weight of L_recon (Eq. 11; 0 = off, and cheaper)
     lambda_contrast: float = 1.0    # λ_c: weight of L_contrast (Eq. 12; 0 = off)
@@ -240,6 +242,10 @@ class TrainConfig:
             raise ValueError(f"steps must be <= 10,000,000, got {self.steps}")
         if self.stage == "control" and not self.base_ckpt:
             raise ValueError("stage 'control' needs --base-ckpt <checkpoint of stage 'base'>")
+        if self.direct_2d and (self.stage != "control" or self.single_controlnet):
+            raise ValueError("--direct-2d trains the ControlNet + adapter stage on drawn "
+                             "conditions: use it with --stage control, without "
+                             "--single-controlnet")
         if self.stage == "align" and not self.base_ckpt:
             raise ValueError("stage 'align' needs --base-ckpt <checkpoint of stage 'control'> "
                              "(the generator whose 3D encoders the 2D ones learn to match)")
@@ -520,11 +526,15 @@ def train(**kwargs):
             p.requires_grad_(name.startswith("sketch_"))
     else:
         base.load_state_dict(base_ckpt["model"])
-        model = ControlledDenoiser(base, single_controlnet=cfg.single_controlnet)
+        model = ControlledDenoiser(base, single_controlnet=cfg.single_controlnet,
+                                   sketch_encoders=cfg.direct_2d)
     params = [p for p in model.parameters() if p.requires_grad]
     opt = torch.optim.AdamW(params, lr=cfg.lr, weight_decay=cfg.weight_decay)
     step = 0
     if resume is not None:
+        was_2d = resume.get("train_config", {}).get("direct_2d", False)
+        if cfg.stage == "control" and was_2d != cfg.direct_2d:
+            raise ValueError(f"{out} was trained with direct_2d={was_2d}; use another --out")
         if cfg.stage == "control" and resume["single_controlnet"] != cfg.single_controlnet:
             raise ValueError(f"{out} was trained with single_controlnet="
                              f"{resume['single_controlnet']}; use another --out")
@@ -537,7 +547,8 @@ def train(**kwargs):
         elif rank == 0:
             print(f"note: resuming with {world} processes from a run with {len(states)}; "
                   f"random streams restart", file=sys.stderr)
-    net = torch.nn.parallel.DistributedDataParallel(model) if ddp else model
+    net = (torch.nn.parallel.DistributedDataParallel(
+        model, find_unused_parameters=cfg.direct_2d) if ddp else model)
     model.train()
     if cfg.stage == "align":                 # the generator is frozen: no dropout in it either
         model.eval()
@@ -604,7 +615,9 @@ def train(**kwargs):
             else:
                 cond = condition_batch(joints_np[idx.numpy()], rng, cfg.min_t_r,
                                        cfg.drop_keypose, cfg.drop_trajectory)
-                out_ = net(x_t, t, a, cond, drop)
+                net_cond = ({**cond, **sketch_batch(cond, rng, noise=cfg.sketch_noise)}
+                            if cfg.direct_2d else cond)
+                out_ = net(x_t, t, a, net_cond, drop)
                 l_rec = F.mse_loss(out_, target)                                 # Eq. (5)
                 x0_hat, _ = sched.split_output(out_, x_t, t)                     # Eq. (7)
                 l_tr, l_key = control_losses(x0_hat, joints_all[idx], cond, mean, std,

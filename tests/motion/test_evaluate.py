@@ -3,6 +3,7 @@ text only, keypose + trajectory, single ControlNet), the test conditions, the CL
 the error cases."""
 import json
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -243,22 +244,56 @@ def test_text_adherence_structure_and_errors(ckpts, real_data):
 
 def test_sketch_evaluation_rows_and_cli(ckpts, tmp_path, capsys):
     """The 2D path: rows and columns, real clips at zero error, the guided sketch nearer its
-    drawing than text only (even for the smoke model), sketch.md written by --sketch."""
-    from physlab.motion.evaluate import SKETCH_COLUMNS, evaluate_sketch
+    drawing than text only (even for the smoke model); with 2D encoders (stage align), a
+    lifter and a direct-2D checkpoint every Table 1 row appears; the average protocol gives
+    each window one joint; the CLI writes sketch_<protocol>.md."""
+    from physlab.motion.baselines import MotionRetrieval, train_lifter
+    from physlab.motion.evaluate import SKETCH_COLUMNS, evaluate_sketch, sketch_conditions
 
     rows = evaluate_sketch(ckpts["control"], windows=3, steps=2, progress=False)
-    assert tuple(rows) == ("real clips", "text only", "2D sketch (guidance only)",
+    assert tuple(rows) == ("real clips", "text only", "3D generator, 2D guidance only",
                            "3D conditions, networks + guidance")
     for r in rows.values():
         assert set(SKETCH_COLUMNS) <= set(r) and all(math.isfinite(r[k]) for k in SKETCH_COLUMNS)
     assert rows["real clips"]["trajectory_error_2d"] == 0 == rows["real clips"]["keypose_mpjpe_2d"]
-    sk, text = rows["2D sketch (guidance only)"], rows["text only"]
+    sk, text = rows["3D generator, 2D guidance only"], rows["text only"]
     assert sk["trajectory_error_2d"] < 0.5 * text["trajectory_error_2d"], rows
+
+    d = tmp_path / "ck"
+    align = train(stage="align", base_ckpt=str(ckpts["control"]), out=str(d / "align.pt"),
+                  **SMOKE)["path"]
+    direct = train(stage="control", base_ckpt=str(ckpts["base"]), direct_2d=True,
+                   out=str(d / "direct.pt"), **SMOKE)["path"]
+    lifter = train_lifter(d / "lifter.pt", steps=1, batch_size=4, max_clips=3,
+                          progress=False)["path"]
+    torch.set_num_threads(1)
+    data = np.load(Path(__file__).resolve().parents[2] / "data" / "motion" /
+                   "lesson_windows.npz")
+    db = MotionRetrieval(data["real_walk"], ["a person walks"] * len(data["real_walk"]),
+                         text_embed=lambda t: np.ones((len(t), 1)))
+    rows = evaluate_sketch(align, windows=2, steps=1, progress=False, lifter=lifter,
+                           direct_2d=direct, retrieval=db, guidance_only=True,
+                           protocol="average")
+    assert tuple(rows) == ("real clips", "text only", "retrieval", "lift-and-control",
+                           "lift-and-control + guidance", "direct 2D", "direct 2D + guidance",
+                           "physlab (2D encoders)", "physlab (2D encoders) + guidance",
+                           "3D generator, 2D guidance only",
+                           "3D conditions, networks + guidance")
+    assert all(math.isfinite(r["trajectory_error_2d"]) for r in rows.values())
+    held = np.stack([np.load(Path(__file__).resolve().parents[2] / "data" / "motion" /
+                             "lesson_windows.npz")["held_out"][0]] * 7)
+    conds = sketch_conditions(held, "average")
+    assert [int(c.mask.any(0).sum()) for c in conds] == [1] * 7
+    assert [int(np.flatnonzero(c.mask.any(0))[0]) for c in conds] == [0, 1, 2, 3, 4, 5, 0]
+    with pytest.raises(ValueError, match="protocol must be one of"):
+        sketch_conditions(held, "mean")
     out = tmp_path / "ev"
     main(["--control", str(ckpts["control"]), "--windows", "3", "--steps", "1", "--sketch",
-          "--no-evaluator", "--out", str(out), "--no-progress"])
-    assert "| 2D sketch (guidance only) |" in capsys.readouterr().out
-    assert (out / "sketch.md").read_text().startswith("| method | traj. err.-2D")
+          "--no-3d", "--no-evaluator", "--out", str(out), "--no-progress"])
+    printed = capsys.readouterr().out
+    assert "| 3D generator, 2D guidance only |" in printed and "| keypose + trajectory |" \
+        not in printed
+    assert (out / "sketch_cross.md").read_text().startswith("| method | traj. err.-2D")
 
 
 def test_sketch_metrics_analytic():

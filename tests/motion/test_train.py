@@ -242,6 +242,14 @@ def test_align_smoke_trains_only_the_2d_encoders(base_run, tmp_path):
     with pytest.raises(ValueError, match="needs the ControlNet \\+ adapter model"):
         train(stage="align", base_ckpt=str(base_run["path"]), out=str(tmp_path / "x.pt"),
               steps=1, **SMOKE)
+    direct = train(stage="control", base_ckpt=str(base_run["path"]), direct_2d=True,
+                   out=str(tmp_path / "d2.pt"), steps=1, **SMOKE)          # Table 1 baseline
+    assert load_model(direct["path"])["model"].has_sketch_encoders
+    with pytest.raises(ValueError, match="direct_2d=True"):
+        train(stage="control", base_ckpt=str(base_run["path"]), out=str(tmp_path / "d2.pt"),
+              steps=2, **SMOKE)
+    with pytest.raises(ValueError, match="--direct-2d trains"):
+        TrainConfig(stage="base", direct_2d=True)
     with pytest.raises(ValueError, match="at least one of"):
         TrainConfig(stage="align", base_ckpt="c.pt", lambda_match=0, lambda_recon=0,
                     lambda_contrast=0)
