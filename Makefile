@@ -99,6 +99,10 @@ motion-model: $(STAMP) motion-evaluator
 	$(MOTION_TRAIN) --stage control --single-controlnet --steps 6000 \
 		--base-ckpt $(MOTION_RUNS)/base.pt --out $(MOTION_RUNS)/single_controlnet.pt \
 		--export data/motion/sketch2anim_single_controlnet.pt
+	$(MOTION_TRAIN) --stage align --steps 2000 --base-ckpt $(MOTION_RUNS)/control.pt \
+		--out $(MOTION_RUNS)/align.pt --export data/motion/sketch2anim_control.pt
+	$(PY) -m physlab.motion.baselines train-lifter --steps 3000 --num-threads 2 \
+		--out $(MOTION_RUNS)/lifter.pt --export data/motion/sketch_lifter.pt
 
 # Rebuilds data/motion/lesson_windows.npz (the real windows lesson 09 shows, so that it runs
 # without ../shared/data) from the Bandai-Namco clips.

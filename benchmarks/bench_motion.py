@@ -114,6 +114,18 @@ def main(argv=None):
                       for k, v in GUIDANCE_VARIANTS.items()}
         t_ref = _time(lambda: gen(text, **{**ctrl, "steps": ddpm_steps}, method="ddpm",
                                   **UNGUIDED), 1)
+        t_sketch = {}
+        if gen.has_sketch_encoders:        # the same condition drawn in a 3/4 view (Sec. 5-6)
+            from physlab.motion.camera import Camera
+
+            cam = Camera(1.0, 15.0, 30.0)
+            drawn = dict(keypose_2d=cam.project(keypose), keypose_at="last", camera=cam,
+                         trajectories_2d={k: cam.project(v) for k, v in traj.items()},
+                         steps=steps)
+            t_sketch = {"networks only": _time(lambda: gen(text, **drawn, **UNGUIDED),
+                                               args.repeats),
+                        "+ 2D guidance (generate's default)": _time(
+                            lambda: gen(text, **drawn, **GUIDED), args.repeats)}
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024  # KiB -> MiB on Linux
     print(f"motion generator: training on {args.threads} thread(s), sampling on "
           f"{args.sample_threads}; model d_model={gen.config.d_model}, {gen.config.n_layers} blocks")
@@ -129,6 +141,9 @@ def main(argv=None):
     print(f"clip, keypose + trajectory + guidance (generate's default) | {t_guided:.3f} s")
     for k, t in t_variants.items():
         print(f"clip, keypose + trajectory {k} (1 run) | {t:.3f} s")
+    for k, t in t_sketch.items():
+        print(f"clip, 2D sketch (2D encoders), {k} | {t:.3f} s (paper: "
+              f"{PAPER_SECONDS_PER_CLIP} s on an RTX 4090)")
     print(f"reference: networks-only clip, DDPM {ddpm_steps} | {t_ref:.3f} s (DDIM/DDPM = "
           f"{t_ctrl / t_ref:.3f})")
     print(f"checkpoints base / control (resumable, with optimizer) | {sizes['base']:.1f} / "
@@ -140,7 +155,8 @@ def main(argv=None):
           f"{t_guided / PAPER_SECONDS_PER_CLIP:.2f}")
     out.update(base=base, control=control, seconds_text=t_text, seconds_control=t_ctrl,
                seconds_guided=t_guided, seconds_variants=t_variants,
-               seconds_reference=t_ref, peak_mib=peak, checkpoint_mib=sizes)
+               seconds_reference=t_ref, seconds_sketch=t_sketch, peak_mib=peak,
+               checkpoint_mib=sizes)
     return out
 
 

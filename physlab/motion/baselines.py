@@ -343,12 +343,18 @@ def main(argv=None):
     t.add_argument("--max-clips", type=int, default=0)
     t.add_argument("--seed", type=int, default=0)
     t.add_argument("--no-progress", action="store_true")
+    t.add_argument("--export", default="", help="after training, write an fp16 inference "
+                                                 "copy to this path")
     a = p.parse_args(argv)
     tic = time.perf_counter()
     res = train_lifter(a.out, steps=a.steps, seed=a.seed, num_threads=a.num_threads,
                        max_clips=a.max_clips, progress=not a.no_progress)
     print(f"lifter: step {res['step']}, loss {res['loss']:.4f}, "
           f"{time.perf_counter() - tic:.0f} s -> {res['path']}")
+    if a.export:
+        from .checkpoint import export_weights
+
+        print(f"inference weights (fp16) -> {export_weights(res['path'], a.export)}")
     return 0
 
 

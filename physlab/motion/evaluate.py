@@ -726,6 +726,44 @@ def evaluate_sketch(control, windows=64, steps=50, seed=0, noise=0.0, progress=T
     return rows
 
 
+def evaluate_alignment_ablation(variants, windows=64, steps=50, seed=0, noise=0.0,
+                                progress=True, data_root=None, protocol="cross",
+                                evaluator=None, out=None):
+    """Table A2's analogue: the networks alone (no inference guidance, as the paper's
+    ablation) of each aligned checkpoint in ``variants`` ``{row name: path}`` (e.g. trained
+    with ``--lambda-recon 0``), on the held-out windows drawn as in :func:`evaluate_sketch`
+    (same conditions, views and noise for every row). Returns ``{row: metrics}``."""
+    from .camera import random_camera, sketch_kwargs
+    from .sampling import CONTROL_TEXT_GUIDANCE
+
+    if not variants:
+        raise ValueError("variants must name at least one aligned checkpoint, "
+                         "{name: path}")
+    n = _check_windows(windows)
+    gens = {name: _load(path, f"--ablation {name}") for name, path in variants.items()}
+    for name, g in gens.items():
+        if not g.has_sketch_encoders:
+            raise ValueError(f"--ablation {name}: {g.path} has no 2D encoders (train it with "
+                             f"--stage align)")
+    data = held_out_windows(n, data_root=data_root)
+    conds = sketch_conditions(data["joints"], protocol, seed=seed)
+    rng = np.random.default_rng(seed + 1)
+    cams = [random_camera(rng) for _ in conds]
+    sketches = [sketch_kwargs(c, cam, rng=np.random.default_rng(seed + 2 + i), noise=noise)
+                for i, (c, cam) in enumerate(zip(conds, cams))]
+    text_motion = _text_motion_metrics(evaluator, data, seed)
+    rows = {}
+    for name, g in gens.items():
+        x, s = _sample(g, data, sketches, True, label=name, options=UNGUIDED,
+                       guidance=CONTROL_TEXT_GUIDANCE, steps=int(steps), seed=int(seed),
+                       progress=progress)
+        rows[name] = {**sketch_metrics(x, conds, cams, s), **text_motion(x)}
+    if out is not None:
+        atomic_write_text(Path(out) / f"ablation_{protocol}.md",
+                          format_sketch_table(rows, noise, protocol) + "\n")
+    return rows
+
+
 def format_sketch_table(rows, noise=0.0, protocol="cross"):
     """Markdown table of :func:`evaluate_sketch`."""
     names = {**SKETCH_COLUMNS, **EVALUATOR_COLUMNS}
@@ -804,6 +842,9 @@ def _parser():
                    help="2D table: add the direct 2D baseline (train --direct-2d checkpoint)")
     p.add_argument("--guidance-only", action="store_true",
                    help="2D table: add the 3D generator driven by the 2D guidance alone")
+    p.add_argument("--ablation", action="append", default=[], metavar="NAME=PATH",
+                   help="Table A2: networks-only 2D rows of aligned checkpoints (repeat; "
+                        "e.g. 'w/o L_recon=runs/a2/no_recon.pt'); with --sketch")
     p.add_argument("--no-3d", action="store_true",
                    help="skip the 3D table (with --sketch: only the 2D one)")
     p.add_argument("--no-foot-lock", action="store_true",
@@ -847,6 +888,17 @@ def main(argv=None):
                 lifter=args.lifter, direct_2d=args.direct_2d, retrieval=args.retrieval,
                 evaluator=evaluator, guidance_only=args.guidance_only),
                 args.sketch_noise, protocol))
+            if args.ablation:
+                pairs = [a.split("=", 1) for a in args.ablation]
+                bad = [a for a, p in zip(args.ablation, pairs) if len(p) != 2]
+                if bad:
+                    raise ValueError(f"--ablation needs NAME=PATH, got {bad[0]!r}")
+                print()
+                print(format_sketch_table(evaluate_alignment_ablation(
+                    dict(pairs), windows=args.windows, steps=args.steps, seed=args.seed,
+                    noise=args.sketch_noise, progress=not args.no_progress,
+                    data_root=args.data_root, protocol=protocol, evaluator=evaluator,
+                    out=args.out), args.sketch_noise, protocol))
     if adherence is not None:
         print()
         print(format_adherence(adherence))

@@ -246,8 +246,7 @@ class SketchCanvas:
         from physlab.viz.view3d import strobe
 
         x = self.motion
-        origin, ppu = self.sketch.pixel_frame(*self._pixel_trajectories())
-        proj = to_pixels(self.sketch.camera.project(x), origin, ppu)           # (40, 22, 2)
+        proj = self.projected_motion_px()                                     # (40, 22, 2)
         layer = self.canvas[2]
         from ipycanvas import hold_canvas
 
@@ -274,9 +273,21 @@ class SketchCanvas:
                                         by_speed=bool(self.by_speed.value))
         return trajs, at
 
-    def trajectory_error_px(self, projected):
+    def projected_motion_px(self, joints=None):
+        """``(40, 22, 2)`` canvas pixels of a motion (default: the last generated) seen from the
+        sketch's camera, placed as the sketch's conditions place it."""
+        x = self.motion if joints is None else np.asarray(joints, dtype=float)
+        if x is None:
+            raise ValueError("no motion yet: press Generate (or call generate()) first")
+        origin, ppu = self.sketch.pixel_frame(*self._pixel_trajectories())
+        return to_pixels(self.sketch.camera.project(x), origin, ppu)
+
+    def trajectory_error_px(self, projected=None):
         """Mean pixel distance between each drawn trajectory and the same joint of the
-        projected motion over the frames the stroke covers: ``{joint_name: px}``."""
+        projected motion (default: :meth:`projected_motion_px` of the last motion) over the
+        frames the stroke covers: ``{joint_name: px}``."""
+        if projected is None:
+            projected = self.projected_motion_px()
         trajs, at = self._pixel_trajectories()
         out = {}
         for name, pts in trajs.items():

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import base64
 import json
+import math
 import os
 import re
 import shutil
@@ -674,8 +675,112 @@ def _drive_lesson09(page, lab, shots_dir):
     _assert_no_errors(page, f"at the end (widget screenshots: {', '.join(map(str, shots))})")
 
 
+# --------------------------------------------------------------------------- lesson 10: drawing
+LESSON10 = "10_sketch_to_motion.ipynb"
+CANVAS_SEL = ".physlab-sketch-canvas"
+LIVE_CANVAS_SEL = f"{CANVAS_SEL}:not([{STALE_ATTR}])"
+# A stick figure and a pelvis stroke in canvas pixels (480 x 400 canvas), drawn with the mouse
+HEAD = [(150 + 16 * math.cos(a), 110 + 16 * math.sin(a))
+        for a in [2 * math.pi * k / 24 for k in range(25)]]
+FIGURE = [HEAD, [(150, 128), (150, 175), (150, 225)],                  # head, body
+          [(110, 205), (130, 170), (150, 145), (170, 170), (190, 205)],  # both arms in one line
+          [(150, 225), (138, 280), (132, 335), (122, 340)],              # legs
+          [(150, 225), (162, 280), (168, 335), (178, 340)]]
+PELVIS_STROKE = [(152 + 12 * k, 227 + (k * k) * 0.12) for k in range(22)]
+MAX_PELVIS_PX = 15.0
+
+
+@pytest.mark.e2e
+@pytest.mark.timeout(HARD_TIMEOUT)
+def test_lesson10_draw_a_sketch_and_generate(lab, tmp_path):
+    _in_browser(lab, tmp_path, _drive_lesson10)
+
+
+def _canvas_readout(box):
+    return box.locator(".widget-html").last.inner_text().strip()
+
+
+def _draw(page, canvas, points):
+    """One mouse stroke through ``points`` (canvas pixels) on the canvas element."""
+    bb = canvas.bounding_box()
+    assert bb, "the sketch canvas has no bounding box (not rendered?)"
+    sx = bb["width"] / float(canvas.get_attribute("width") or bb["width"])
+    sy = bb["height"] / float(canvas.get_attribute("height") or bb["height"])
+    x0, y0 = points[0]
+    page.mouse.move(bb["x"] + x0 * sx, bb["y"] + y0 * sy)
+    page.mouse.down()
+    for x, y in points[1:]:
+        page.mouse.move(bb["x"] + x * sx, bb["y"] + y * sy, steps=3)
+    page.mouse.up()
+
+
+def _drive_lesson10(page, lab, shots_dir):
+    """Lesson 10: clear the example sketch, draw a stick figure and a pelvis stroke with the
+    mouse, snap the joints, press Generate; the motion's projected pelvis must follow the
+    drawn stroke (the readout's pixel distance) and the 3D result must show as an image."""
+    t0 = time.monotonic()
+    page.goto(f"{lab.url}/lab/tree/{LESSON10}?token={lab.token}", wait_until="domcontentloaded")
+    page.locator(".jp-Notebook .jp-Cell").first.wait_for(timeout=PAGE_TIMEOUT * 1000)
+    _wait_until(page, lambda: _kernel_idle(page), PAGE_TIMEOUT,
+                lambda: f"the kernel to be idle (status {_kernel_status(page)!r})")
+    page.evaluate(f"document.querySelectorAll('{CANVAS_SEL}')"
+                  f".forEach(e => e.setAttribute('{STALE_ATTR}', '1'))")
+    page.locator(".lm-MenuBar-item", has_text=re.compile(r"^\s*Run\s*$")).click()
+    page.locator(".lm-Menu-item", has_text=re.compile(r"^\s*Run All Cells")).first.click()
+    prompts = page.locator(".jp-InputPrompt")
+    boxes = page.locator(LIVE_CANVAS_SEL)
+
+    def all_ran():
+        return boxes.count() == 1 and not any("*" in t for t in prompts.all_inner_texts())
+
+    _wait_until(page, lambda: _check_errors_then(page, all_ran, "during Run All"),
+                STALL_TIMEOUT, "all cells to run and the sketch canvas to render",
+                progress=lambda: sum(bool(re.search(r"\d", t))
+                                     for t in prompts.all_inner_texts()))
+    box = boxes.first
+    box.scroll_into_view_if_needed()
+    print(f"[e2e] lesson 10 ran, canvas shown after {time.monotonic() - t0:.1f} s")
+    box.screenshot(path=str(shots_dir / "1_example.png"))
+    box.get_by_role("button", name="Clear", exact=True).click()
+    _wait_until(page, lambda: _canvas_readout(box) == "cleared", UPDATE_TIMEOUT,
+                lambda: f"the canvas to clear (readout {_canvas_readout(box)!r})")
+    canvas = box.locator("canvas").last                     # the top layer gets the mouse
+    for k, stroke in enumerate(FIGURE, start=1):
+        _draw(page, canvas, stroke)
+        _wait_until(page, lambda: _canvas_readout(box).startswith(f"{k} pose and 0 trajectory"),
+                    UPDATE_TIMEOUT, lambda: f"pose stroke {k} to arrive (readout "
+                                            f"{_canvas_readout(box)!r})")
+    box.get_by_role("button", name="trajectory", exact=True).click()
+    _draw(page, canvas, PELVIS_STROKE)
+    _wait_until(page, lambda: _canvas_readout(box).endswith("1 trajectory strokes"),
+                UPDATE_TIMEOUT, lambda: f"the trajectory stroke to arrive (readout "
+                                        f"{_canvas_readout(box)!r})")
+    box.get_by_role("button", name="Snap joints", exact=True).click()
+    _wait_until(page, lambda: "snapped" in _canvas_readout(box), UPDATE_TIMEOUT,
+                lambda: f"the joints to snap (readout {_canvas_readout(box)!r})")
+    box.screenshot(path=str(shots_dir / "2_drawn.png"))
+    box.get_by_role("button", name="Generate", exact=True).click()
+    _wait_until(page, lambda: _check_errors_then(
+        page, lambda: _canvas_readout(box).startswith("generated"), "while generating"),
+        STALL_TIMEOUT, lambda: f"the motion (readout {_canvas_readout(box)!r})",
+        progress=lambda: not _kernel_idle(page))
+    text = _canvas_readout(box)
+    shot = shots_dir / "3_generated.png"
+    box.screenshot(path=str(shot))
+    m = re.search(r"pelvis ([0-9.]+) px", text)
+    assert m, f"the readout names no pelvis error: {text!r}; see {shot}"
+    assert float(m.group(1)) < MAX_PELVIS_PX, (
+        f"the projected pelvis is {m.group(1)} px from the drawn stroke on average (limit "
+        f"{MAX_PELVIS_PX}); see {shot}")
+    img = box.locator("img").last
+    assert img.evaluate("i => i.naturalWidth") > 200, f"no 3D result image; see {shot}"
+    print(f"[e2e] lesson 10: drew {len(FIGURE)} pose strokes and a pelvis stroke, generated "
+          f"after {time.monotonic() - t0:.1f} s: {text}")
+    _assert_no_errors(page, f"at the end (screenshots in {shots_dir})")
+
+
 # --------------------------------------------------------------------------- every other lesson
-SPECIFIC_TESTS = {LESSON01, LESSON04, LESSON06, LESSON09}
+SPECIFIC_TESTS = {LESSON01, LESSON04, LESSON06, LESSON09, LESSON10}
 
 
 def _widget_cells(path):
@@ -690,7 +795,9 @@ WIDGET_LESSONS = {p.name: n for p in sorted(LESSONS.glob("*.ipynb")) if (n := _w
 
 def test_every_widget_lesson_is_driven_in_the_browser():
     """No lesson with widgets escapes the browser tests (collected without a browser)."""
-    assert SPECIFIC_TESTS <= set(WIDGET_LESSONS), sorted(WIDGET_LESSONS)
+    canvases = {p.name for p in LESSONS.glob("*.ipynb") if "SketchCanvas(" in p.read_text()}
+    assert SPECIFIC_TESTS <= set(WIDGET_LESSONS) | canvases, sorted(WIDGET_LESSONS)
+    assert canvases <= SPECIFIC_TESTS, sorted(canvases)
     assert len(WIDGET_LESSONS) >= 8, sorted(WIDGET_LESSONS)
 
 

@@ -287,6 +287,15 @@ def test_sketch_evaluation_rows_and_cli(ckpts, tmp_path, capsys):
     assert [int(np.flatnonzero(c.mask.any(0))[0]) for c in conds] == [0, 1, 2, 3, 4, 5, 0]
     with pytest.raises(ValueError, match="protocol must be one of"):
         sketch_conditions(held, "mean")
+    from physlab.motion.evaluate import evaluate_alignment_ablation
+
+    ab = evaluate_alignment_ablation({"full": align, "again": align}, windows=2, steps=1,
+                                     progress=False)
+    assert tuple(ab) == ("full", "again")
+    assert ab["full"]["trajectory_error_2d"] == ab["again"]["trajectory_error_2d"]  # same draws
+    with pytest.raises(ValueError, match="has no 2D encoders"):
+        evaluate_alignment_ablation({"plain": ckpts["control"]}, windows=2, steps=1,
+                                    progress=False)
     out = tmp_path / "ev"
     main(["--control", str(ckpts["control"]), "--windows", "3", "--steps", "1", "--sketch",
           "--no-3d", "--no-evaluator", "--out", str(out), "--no-progress"])
