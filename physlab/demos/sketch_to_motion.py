@@ -181,23 +181,31 @@ def trajectory_error_2d(joints, sketch):
     return float(np.linalg.norm(p - sk["trajectory"], axis=-1)[m].mean())
 
 
+def _overlay(ax, x, sketch):
+    """A motion seen from the sketch's camera (blue: every 13th frame, the trajectory joints'
+    paths) over the drawing (red: strokes, and the keypose stood under the motion's pelvis at
+    the key frame)."""
+    uv = sketch["camera"].project(x)
+    for f in range(0, len(x), 13):
+        draw_2d(ax, uv[f], color="tab:blue", lw=0.9, alpha=0.45, sides=False)
+    for name, pts in (sketch.get("trajectories_2d") or {}).items():
+        j = JOINT_NAMES.index(name)
+        ax.plot(pts[:, 0], pts[:, 1], color="#dc0000", lw=2.0)
+        ax.plot(uv[:, j, 0], uv[:, j, 1], color="tab:blue", lw=1.2)
+    key = sketch.get("keypose_2d")
+    if key is not None:
+        kf = 0 if sketch.get("keypose_at", "first") == "first" else len(x) - 1
+        draw_2d(ax, key - key[0] + uv[kf, 0], color="#dc0000", lw=1.0, sides=False)
+
+
 def guidance_steps_figure(result, sketch):
     """Projected pelvis / trajectory joints after each number of guidance iterations, over
     the drawing (red)."""
     ks = list(result)
     fig, axes = new_figure(ncols=len(ks), width=1.7, height=2.4)
-    cam = sketch["camera"]
     for ax, k in zip(axes, ks):
         x, err, sec = result[k]
-        uv = cam.project(x)
-        for f in range(0, len(x), 13):
-            draw_2d(ax, uv[f], color="tab:blue", lw=1.0, alpha=0.5, sides=False)
-        for name, pts in (sketch.get("trajectories_2d") or {}).items():
-            j = JOINT_NAMES.index(name)
-            ax.plot(pts[:, 0], pts[:, 1], color="#dc0000", lw=2.0)
-            ax.plot(uv[:, j, 0], uv[:, j, 1], color="tab:blue", lw=1.2)
-        if sketch.get("keypose_2d") is not None:
-            draw_2d(ax, sketch["keypose_2d"], color="#dc0000", lw=1.0, sides=False)
+        _overlay(ax, x, sketch)
         ax.set_title(f"{k} iterations\nerr {err:.3f}, {sec:.2f} s", fontsize=7)
         ax.set_aspect("equal")
         ax.tick_params(labelsize=6)
@@ -262,20 +270,8 @@ def baselines_figure(result, index=0, methods=None):
     sketch = result["sketches"][index]
     names = [m for m in (methods or result) if m not in ("conds", "sketches", "cameras")]
     fig, axes = new_figure(ncols=len(names), width=1.75, height=2.5)
-    cam = sketch["camera"]
     for ax, name in zip(np.atleast_1d(axes), names):
-        x = result[name]["joints"][index]
-        uv = cam.project(x)
-        for f in range(0, len(x), 13):
-            draw_2d(ax, uv[f], color="tab:blue", lw=0.9, alpha=0.45, sides=False)
-        for jn, pts in (sketch.get("trajectories_2d") or {}).items():
-            j = JOINT_NAMES.index(jn)
-            ax.plot(pts[:, 0], pts[:, 1], color="#dc0000", lw=2.0)
-            ax.plot(uv[:, j, 0], uv[:, j, 1], color="tab:blue", lw=1.2)
-        key = sketch.get("keypose_2d")
-        if key is not None:
-            kf = 0 if sketch["keypose_at"] == "first" else len(x) - 1
-            draw_2d(ax, key - key[0] + uv[kf, 0], color="#dc0000", lw=1.0, sides=False)
+        _overlay(ax, result[name]["joints"][index], sketch)
         ax.set_title(name.replace(" + ", "\n+ "), fontsize=7)
         ax.set_aspect("equal")
         ax.tick_params(labelsize=6)
