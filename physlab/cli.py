@@ -141,13 +141,22 @@ def _parser():
                               "  physlab generate \"a person runs\" --keypose pose.npy "
                               "--trajectory pelvis=path.npy --out run.gif\n"
                               "  physlab generate \"a person walks\" --trajectory pelvis=drawn.npy "
-                              "--camera 1,20,45 --out walk.bvh\n\n--keypose: a .npy "
+                              "--camera 1,20,45 --out walk.bvh\n"
+                              "  physlab generate \"a person walks\" --sketch sketch.json "
+                              "--out walk.bvh\n\n--keypose: a .npy "
                               "(22, 3) array in metres; --trajectory JOINT=FILE: a .npy (t_r, 3) "
                               "array for pelvis, left_foot, right_foot, head, left_wrist or "
                               "right_wrist (canonical frame, see physlab.motion.sampling). "
                               "(22, 2) / (t_r, 2) arrays are a sketch in the normalised image "
-                              "coordinates of --camera (physlab.motion.camera).")
-    g.add_argument("action", help='action text, e.g. "a person walks"')
+                              "coordinates of --camera (physlab.motion.camera). --sketch: a "
+                              "sketch saved by the lesson-10 canvas (.json: strokes, joints, "
+                              "camera; its action word unless ACTION is given) or a .png of a "
+                              "black stick figure with red trajectory strokes (front view "
+                              "unless --camera).")
+    g.add_argument("action", nargs="?", default=None,
+                   help='action text, e.g. "a person walks" (optional with a .json --sketch)')
+    g.add_argument("--sketch", default=None, help="a sketch .json (physlab.motion.sketch) or "
+                                                  "a stick-figure .png")
     g.add_argument("--keypose", default=None, help="(22, 3) .npy keypose in metres")
     g.add_argument("--keypose-at", default="first", choices=("first", "last"))
     g.add_argument("--trajectory", action="append", default=[], metavar="JOINT=FILE",
@@ -333,7 +342,29 @@ def _generate(args):
             raise ValueError(f"--camera {args.camera!r}: expected SCALE,PITCH,YAW[,ROLL] in "
                              f"degrees, e.g. 1,20,45")
         camera = Camera(*values)
-    joints = generate(args.action, keypose_3d=keypose[3], keypose_at=args.keypose_at,
+    keypose_at = args.keypose_at
+    if args.sketch is not None:
+        from physlab.motion.sketch import Sketch, sketch_from_png
+
+        if keypose[2] is not None or trajectories[2]:
+            raise ValueError("--sketch already holds the drawn keypose and trajectories; leave "
+                             "out the (22, 2) / (t_r, 2) --keypose / --trajectory arrays")
+        path = Path(args.sketch)
+        if not path.is_file():
+            raise FileNotFoundError(f"--sketch {path}: no such file")
+        if path.suffix.lower() == ".png":
+            sk = sketch_from_png(path, args.action or "a person walks", camera)
+        else:
+            sk = Sketch.load(path)
+            if camera is not None:
+                sk.camera = camera
+        cond = sk.conditions()
+        keypose[2], trajectories[2] = cond["keypose_2d"], cond["trajectories_2d"] or {}
+        camera, keypose_at = cond["camera"], cond["keypose_at"]
+        args.action = args.action or cond["action"]
+    if not args.action:
+        raise ValueError("give the action text, e.g. physlab generate \"a person walks\" ...")
+    joints = generate(args.action, keypose_3d=keypose[3], keypose_at=keypose_at,
                       trajectories_3d=trajectories[3] or None, keypose_2d=keypose[2],
                       trajectories_2d=trajectories[2] or None, camera=camera, seed=args.seed,
                       guidance_scale=args.guidance_scale, steps=args.steps,

@@ -204,7 +204,27 @@ def test_generate_from_a_2d_sketch(tmp_path, capsys):
     assert np.linalg.norm(q - path, axis=-1).mean() < 0.1
 
 
+@pytest.mark.filterwarnings("ignore:the BVH reproduces the joints only")
+def test_generate_from_a_saved_sketch(tmp_path, capsys):
+    """The lesson-10 example sketch (JSON from the canvas): its action word and camera are
+    used, and the clip's projected pelvis follows the drawn stroke."""
+    from physlab.demos.sketch_to_motion import EXAMPLE_SKETCH
+    from physlab.motion.sketch import Sketch
+
+    out = tmp_path / "walk.npy"
+    status, printed, err = _run(["generate", "--sketch", str(EXAMPLE_SKETCH), "--steps", "10",
+                                 "--out", str(out)], capsys)
+    assert status == 0, err
+    assert "'a person walks'" in printed
+    cond = Sketch.load(EXAMPLE_SKETCH).conditions()
+    q = cond["camera"].project(np.load(out))[:, 0]
+    assert np.linalg.norm(q - cond["trajectories_2d"]["pelvis"], axis=-1).mean() < 0.05
+
+
 @pytest.mark.parametrize("args, match", [
+    (["generate", "--out", "x.bvh"], "give the action text"),
+    (["generate", "a person walks", "--sketch", "none.json", "--out", "x.bvh"],
+     "--sketch none.json: no such file"),
     (["generate", "a person walks", "--out", "x.avi"], "cannot write .avi"),
     (["generate", "a person walks", "--camera", "1,20", "--out", "x.bvh"],
      "expected SCALE,PITCH,YAW"),
