@@ -361,8 +361,8 @@ def _generate(args):
         cond = sk.conditions()
         keypose[2], trajectories[2] = cond["keypose_2d"], cond["trajectories_2d"] or {}
         camera, keypose_at = cond["camera"], cond["keypose_at"]
-        args.action = args.action or cond["action"]
-    if not args.action:
+        args.action = cond["action"] if args.action is None else args.action
+    if args.action is None:
         raise ValueError("give the action text, e.g. physlab generate \"a person walks\" ...")
     joints = generate(args.action, keypose_3d=keypose[3], keypose_at=keypose_at,
                       trajectories_3d=trajectories[3] or None, keypose_2d=keypose[2],
