@@ -9,7 +9,8 @@ from strokes, strokes to trajectories, pixels to normalised units) lives in
 :mod:`physlab.motion.sketch`; this module only draws and routes events.
 
 Modes (toggle buttons): **pose** strokes (black), **trajectory** strokes (red), **joints**
-(drag a snapped joint to fix it). Buttons: Snap joints, Undo, Clear, Generate. The result:
+(drag a snapped joint to fix it). Buttons: Snap joints, Undo, Clear, Generate, and Save /
+Load of the sketch as JSON (:meth:`~physlab.motion.sketch.Sketch.save`). The result:
 a strobe image of the 3D motion (pyvista, or matplotlib) and, on the canvas, the motion
 projected in the sketch's view (blue stick figures and the pelvis path), with a readout of
 how far the projected joints stay from the drawn trajectories.
@@ -85,10 +86,14 @@ class SketchCanvas:
         self.undo = w.Button(description="Undo")
         self.clear = w.Button(description="Clear")
         self.go = w.Button(description="Generate", button_style="primary")
+        self.file = w.Text(value="sketch.json", description="file")
+        self.save = w.Button(description="Save")
+        self.load = w.Button(description="Load")
         self.readout = w.HTML(value="Draw a stick figure, then trajectories in red.")
         self.result = w.Image(format="png", layout=w.Layout(max_width="520px"))
         for b, f in ((self.snap, self._on_snap), (self.undo, self._on_undo),
-                     (self.clear, self._on_clear), (self.go, self._on_generate)):
+                     (self.clear, self._on_clear), (self.go, self._on_generate),
+                     (self.save, self._on_save), (self.load, self._on_load)):
             b.on_click(lambda _b, f=f: self._guard(f))
         for s in (self.pitch, self.yaw):
             s.observe(lambda _c: self._guard(self._on_camera), names="value")
@@ -98,7 +103,7 @@ class SketchCanvas:
         self.canvas.on_mouse_up(lambda x, y: self._guard(self._up, x, y))
         controls = w.VBox([self.mode, self.action, self.pitch, self.yaw, self.by_speed,
                            w.HBox([self.snap, self.undo]), w.HBox([self.clear, self.go]),
-                           self.readout])
+                           self.file, w.HBox([self.save, self.load]), self.readout])
         self.widget = w.VBox([w.HBox([self.canvas, controls]), self.result])
         self.widget.add_class("physlab-sketch-canvas")
         self.redraw()
@@ -116,7 +121,7 @@ class SketchCanvas:
         """Run a callback; show an error in the readout instead of losing it in the log."""
         try:
             f(*args)
-        except (ValueError, TypeError, FileNotFoundError) as e:
+        except (ValueError, TypeError, OSError) as e:
             self._say(f"{type(e).__name__}: {e}", error=True)
 
     # -- drawing
@@ -218,6 +223,24 @@ class SketchCanvas:
         self.canvas[2].clear()
         self.redraw()
         self._say("cleared")
+
+    def _on_save(self):
+        path = self.sketch.save(self.file.value)
+        self._say(f"saved the sketch to {path}")
+
+    def _on_load(self):
+        from physlab.motion.sketch import Sketch
+
+        sk = Sketch.load(self.file.value)
+        if tuple(sk.size) != tuple(self.sketch.size):
+            raise ValueError(f"{self.file.value} is a {sk.size[0]}x{sk.size[1]} sketch; this "
+                             f"canvas is {self.sketch.size[0]}x{self.sketch.size[1]}")
+        self.sketch, self.motion = sk, None
+        self.action.value = sk.action
+        self.pitch.value, self.yaw.value = sk.camera.pitch, sk.camera.yaw
+        self.canvas[2].clear()
+        self.redraw()
+        self._say(f"loaded {self.file.value}")
 
     def _on_camera(self):
         c = self.sketch.camera
