@@ -640,7 +640,8 @@ def sketch_conditions(joints, protocol="cross", seed=0):
 
 def evaluate_sketch(control, windows=64, steps=50, seed=0, noise=0.0, progress=True,
                     data_root=None, out=None, protocol="cross", lifter=None, direct_2d=None,
-                    retrieval=False, evaluator=None, guidance_only=False):
+                    retrieval=False, evaluator=None, guidance_only=False,
+                    guidance_variants=False):
     """The 2D path on held-out windows (Sketch2Anim Table 1's setting): each window's
     condition (:func:`sketch_conditions`) is projected in a random storyboard view
     (:func:`~physlab.motion.camera.random_camera`, supp. B ranges) and given as a sketch
@@ -652,7 +653,9 @@ def evaluate_sketch(control, windows=64, steps=50, seed=0, noise=0.0, progress=T
     ``--direct-2d`` control checkpoint: networks only and + guidance); then ``control``:
     with its 2D encoders (stage ``align``) networks only and + guidance, and (``guidance_only``
     or no encoders) the 3D generator driven by the 2D guidance alone; and the same condition
-    in 3D through the networks + guidance for reference.
+    in 3D through the networks + guidance for reference. ``guidance_variants`` adds Table A3's
+    rows for the 2D encoders: :data:`GUIDANCE_VARIANTS` (per-step guidance through the
+    network, first-order and L-BFGS; ~5 s per clip).
 
     Returns ``{row: metrics}`` (:data:`SKETCH_COLUMNS`, plus the evaluator's columns when
     ``evaluator`` is given: ``"default"`` or a path)."""
@@ -705,7 +708,10 @@ def evaluate_sketch(control, windows=64, steps=50, seed=0, noise=0.0, progress=T
     for name, g in variants:
         if not g.has_sketch_encoders:
             raise ValueError(f"{name}: {g.path} has no 2D encoders")
-        for suffix, options in (("", UNGUIDED), (" + guidance", GUIDED)):
+        options_of = {"": UNGUIDED, " + guidance": GUIDED}
+        if guidance_variants and g is gen:
+            options_of.update({" " + k: v for k, v in GUIDANCE_VARIANTS.items()})
+        for suffix, options in options_of.items():
             x, s = _sample(g, data, sketches, True, label=name + suffix, options=options,
                            guidance=CONTROL_TEXT_GUIDANCE, **kw)
             rows[name + suffix] = metrics(x, s)
@@ -886,7 +892,8 @@ def main(argv=None):
                 noise=args.sketch_noise, progress=not args.no_progress,
                 data_root=args.data_root, out=args.out, protocol=protocol,
                 lifter=args.lifter, direct_2d=args.direct_2d, retrieval=args.retrieval,
-                evaluator=evaluator, guidance_only=args.guidance_only),
+                evaluator=evaluator, guidance_only=args.guidance_only,
+                guidance_variants=args.guidance_variants),
                 args.sketch_noise, protocol))
             if args.ablation:
                 pairs = [a.split("=", 1) for a in args.ablation]
