@@ -607,8 +607,16 @@ def train(**kwargs):
             elif cfg.stage == "align":
                 cond = condition_batch(joints_np[idx.numpy()], rng, cfg.min_t_r)
                 sketch = sketch_batch(cond, rng, noise=cfg.sketch_noise)
+
+                def generation_loss(out, idx=idx, cond=cond):                    # Eq. (9)
+                    x0_hat, _ = sched.split_output(out, x_t, t)
+                    l_tr, l_key = control_losses(x0_hat, joints_all[idx], cond, mean, std,
+                                                 model_cfg.representation)
+                    return cfg.lambda_tr * l_tr + cfg.lambda_key * l_key
+
                 terms = alignment_losses(model, x_t, t, a, cond, sketch, target, drop,
-                                         tau=cfg.tau, recon=cfg.lambda_recon > 0)
+                                         tau=cfg.tau, recon=cfg.lambda_recon > 0,
+                                         generation_loss=generation_loss)
                 loss = (cfg.lambda_match * terms["match"] + cfg.lambda_recon * terms["recon"]
                         + cfg.lambda_contrast * terms["contrast"])                # Eq. (13)
                 parts = {k: v.item() for k, v in terms.items()}

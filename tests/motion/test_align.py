@@ -96,6 +96,9 @@ def test_alignment_terms_match_their_equations_and_train_only_the_2d_encoders():
         for enc in (model.sketch_traj_encoder.out, model.sketch_keypose_encoder.out):
             enc.weight.zero_()
             enc.bias.fill_(0.3)
+    plus = alignment_losses(model, x_t, t, a, cond, sk, target,
+                            generation_loss=lambda out: 0.0 * out.sum() + 1.5)   # Eq. (9) hook
+    torch.testing.assert_close(plus["recon"], terms["recon"] + 1.5)
     flat = alignment_losses(model, x_t, t, a, cond, sk, target, recon=False)
     assert flat["contrast"].item() == pytest.approx(2 * math.log(B), rel=1e-5)
     assert flat["recon"].item() == 0.0
