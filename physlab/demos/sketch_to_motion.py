@@ -265,19 +265,30 @@ def baselines_comparison(generator, windows, texts, seed=0, steps=50, lifter=Non
     return out
 
 
-def baselines_figure(result, index=0, methods=None):
-    """One window's sketch (red) with each method's motion projected in its view (blue)."""
+def baselines_figure(result, index=None, methods=None):
+    """One window's sketch (red) with each method's motion projected in its view (blue);
+    ``index`` None: the first window whose drawing has a pelvis stroke (the easiest to read),
+    else window 0. Panels share their axes."""
+    if index is None:
+        index = next((i for i, c in enumerate(result["conds"]) if c.mask[:, 0].any()), 0)
     sketch = result["sketches"][index]
     names = [m for m in (methods or result) if m not in ("conds", "sketches", "cameras")]
-    fig, axes = new_figure(ncols=len(names), width=1.75, height=2.5)
-    for ax, name in zip(np.atleast_1d(axes), names):
+    fig, axes = new_figure(ncols=len(names), width=2.0, height=2.9)
+    axes = np.atleast_1d(axes)
+    for ax, name in zip(axes, names):
         _overlay(ax, result[name]["joints"][index], sketch)
-        ax.set_title(name.replace(" + ", "\n+ "), fontsize=7)
-        ax.set_aspect("equal")
+        err = trajectory_error_2d(result[name]["joints"][index], sketch)      # this window
+        ax.set_title(name.replace(" + ", "\n+ ") + f"\n2D err {err:.3f}", fontsize=7)
         ax.tick_params(labelsize=6)
+    lim = np.array([ax.get_xlim() + ax.get_ylim() for ax in axes])
+    for ax in axes:
+        ax.set_xlim(lim[:, 0].min(), lim[:, 1].max())
+        ax.set_ylim(lim[:, 2].min(), lim[:, 3].max())
+        ax.set_aspect("equal", adjustable="box")
+    fig.suptitle(f"held-out window {index}: the drawing (red) and each method's motion seen "
+                 f"from the drawing's view (blue)", fontsize=8)
     fig.set_dpi(FIG_DPI)
     return fig
-
 
 
 def write_example_sketch(path=EXAMPLE_SKETCH, seed=0):

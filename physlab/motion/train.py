@@ -471,7 +471,7 @@ def train(**kwargs):
                              f"model of --stage control")
     if cfg.stage == "control":
         base_ckpt = load_checkpoint(cfg.base_ckpt)
-        if base_ckpt["stage"] == "control":    # its frozen base: train another variant on it
+        if base_ckpt["stage"] in ("control", "align"):   # its frozen base: another variant
             base_ckpt = dict(base_ckpt, stage="base", model={
                 k[len("base."):]: v for k, v in base_ckpt["model"].items()
                 if k.startswith("base.")})
