@@ -205,7 +205,8 @@ def test_the_shipped_2d_encoders_read_a_drawing(gen, drawn):
 
 def test_the_shipped_lifter_lifts_a_drawing_towards_its_3d_condition(real_data):
     """The lift-and-control baseline's lifter (Table 1) puts drawn points much nearer their 3D
-    origin than the drawing's own 2D coordinates placed at depth 0 would be."""
+    origin than the drawing's own 2D coordinates put back at the origin's depth (measured on
+    these 8 windows: 0.084 m against 0.474 m)."""
     from physlab.motion.baselines import lift, load_lifter
     from physlab.motion.camera import random_camera, sketch_kwargs
     from physlab.motion.evaluate import eval_conditions
