@@ -63,7 +63,7 @@ def test_drawing_snapping_dragging_and_generating(tmp_path):
     c.file.value = str(tmp_path / "s.json")
     c.save.click()
     c.clear.click()
-    assert not c.sketch.strokes and c.status.endswith("cleared</span>")
+    assert not c.sketch.strokes and c.status.endswith("cleared</span>") and not c.result.value
     c.load.click()
     assert len(c.sketch.strokes) == 6 and c.sketch.joints is not None
     c.undo.click()

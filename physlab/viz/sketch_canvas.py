@@ -76,7 +76,7 @@ class SketchCanvas:
         self.canvas = MultiCanvas(3, width=W, height=H)     # 0 strokes, 1 joints, 2 motion
         self.canvas.layout.border = "1px solid #bbb"
         self.mode = w.ToggleButtons(options=["pose", "trajectory", "joints"], value="pose",
-                                    description="draw", style={"button_width": "82px"})
+                                    description="draw", style={"button_width": "96px"})
         self.action = w.Text(value=self.sketch.action, description="action")
         cam = self.sketch.camera
         self.pitch = w.FloatSlider(value=cam.pitch, min=0, max=30, step=1, description="pitch°")
@@ -220,6 +220,7 @@ class SketchCanvas:
         self.sketch.strokes.clear()
         self.sketch.joints = None
         self.motion = None
+        self.result.value = b""
         self.canvas[2].clear()
         self.redraw()
         self._say("cleared")
