@@ -23,7 +23,7 @@ help:
 	@echo "make test       set up .venv and run the whole suite (unit tests, executed lessons, browser test)"
 	@echo "make reproduce  execute every lesson headless, write figures to reports/"
 	@echo "make bench      run the benchmarks in benchmarks/"
-	@echo "make motion-model  retrain the shipped motion checkpoints in data/motion/ (~75 min, 2 cores)"
+	@echo "make motion-model  retrain the shipped motion checkpoints in data/motion/ (~100 min, 2 cores)"
 
 # (Re)install whenever pyproject.toml changes.
 $(STAMP): pyproject.toml
@@ -77,10 +77,11 @@ bench: $(STAMP)
 	$(PY) benchmarks/run_all.py
 
 # Retrains data/motion/*.pt (part 4, Sketch2Anim) from the Bandai-Namco clips in ../shared/data
-# (every take but the held-out 002), on 2 cores, ~75 min in all: the text-motion evaluator
+# (every take but the held-out 002), on 2 cores, ~100 min in all: the text-motion evaluator
 # (1000 steps, ~7 min on one thread), the text-conditioned base denoiser (5000 steps, ~10 min),
 # the trajectory ControlNet + keypose adapter on the frozen base (6000 steps, ~33 min) and the
-# single-ControlNet ablation (6000 steps, the same budget, ~23 min). Resumable: rerun after an
+# single-ControlNet ablation (6000 steps, the same budget, ~23 min), the 2D encoders aligned to the
+# 3D ones (align stage, 2000 steps, ~16 min) and the lift-and-control lifter (~10 min). Resumable: rerun after an
 # interruption.
 # Full-precision checkpoints stay in $(MOTION_RUNS); data/ gets the fp16 inference copies.
 MOTION_RUNS  ?= runs/motion

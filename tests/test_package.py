@@ -47,6 +47,7 @@ def test_lessons_are_listed_in_readme_and_stored_executed():
         outputs = [o for c in code for o in c.get("outputs", [])]
         assert not [o for o in outputs if o["output_type"] == "error"], f"{path.name} stores an error"
         assert any("image/png" in o.get("data", {}) or "text/html" in o.get("data", {}) for o in outputs)
-        assert any("interact(" in "".join(c["source"]) for c in code), f"{path.name} has no widget"
+        assert any(w in "".join(c["source"]) for c in code for w in ("interact(", "SketchCanvas(")), \
+            f"{path.name} has no widget"
         long = [c for c in code if len("".join(c["source"]).splitlines()) > 25]
         assert not long, f"{path.name}: code cells over 25 lines belong in physlab/"
