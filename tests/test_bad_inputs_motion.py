@@ -218,7 +218,7 @@ def test_generate_needs_an_action_text(action):
     (["--steps", "-5"], r"steps must be >= 1"),
     (["--seed", "-1"], r"seed must be an integer in"),
     (["--batch-size", "0"], r"batch_size must be >= 1"),
-    (["--stage", "bogus"], r"stage must be 'base' or 'control'"),
+    (["--stage", "bogus"], r"stage must be one of \('base', 'control', 'align'\), got 'bogus'"),
     (["--stage", "control"], r"stage 'control' needs --base-ckpt"),
     (["--weight-decay", "-1"], r"weight_decay must be >= 0"),
     (["--steps", "ten"], r"argument --steps: invalid int value"),
