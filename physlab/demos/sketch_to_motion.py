@@ -14,9 +14,9 @@ from pathlib import Path
 
 import numpy as np
 
-from physlab.motion.camera import (Camera, perturb_joints, perturb_proportions, random_camera,
-                                   sketch_kwargs)
+from physlab.motion.camera import Camera, perturb_joints, perturb_proportions, random_camera
 from physlab.motion.dataset import TRAJECTORY_JOINTS
+from physlab.motion.metrics import trajectory_error
 from physlab.motion.skeleton import JOINT_NAMES, PARENTS
 from physlab.viz.plots import new_figure
 
@@ -43,6 +43,20 @@ def lesson_window(k=2):
 def lesson_pose(k=2, frame=0):
     """One real pose (22, 3) of :func:`lesson_window`."""
     return lesson_window(k)[0][frame]
+
+
+def _share_limits(axes):
+    """One x and one y range for all panels (the union of theirs), equal aspect, small ticks
+    that do not run into each other."""
+    from matplotlib.ticker import MaxNLocator
+
+    lim = np.array([ax.get_xlim() + ax.get_ylim() for ax in axes])
+    for ax in axes:
+        ax.set_xlim(lim[:, 0].min(), lim[:, 1].max())
+        ax.set_ylim(lim[:, 2].min(), lim[:, 3].max())
+        ax.set_aspect("equal", adjustable="box")
+        ax.xaxis.set_major_locator(MaxNLocator(2))
+        ax.tick_params(labelsize=6)
 
 
 def draw_2d(ax, uv, color="k", lw=1.6, alpha=1.0, sides=True, label=None):
@@ -79,12 +93,7 @@ def views_figure(pose=None, seed=0, n=4):
         draw_2d(ax, uv)
         ax.set_title("legs ×{leg:.2f}, spine ×{spine:.2f}\narms ×{arm:.2f}".format(**used),
                      fontsize=7)
-    lim = np.array([ax.get_xlim() + ax.get_ylim() for ax in axes.ravel()])
-    for ax in axes.ravel():
-        ax.set_aspect("equal")
-        ax.set_xlim(lim[:, 0].min(), lim[:, 1].max())
-        ax.set_ylim(lim[:, 2].min(), lim[:, 3].max())
-        ax.tick_params(labelsize=6)
+    _share_limits(axes.ravel())
     axes[0, 0].set_ylabel("random views", fontsize=8)
     axes[1, 0].set_ylabel("front view, perturbed\n(blue: true proportions)", fontsize=8)
     fig.set_dpi(FIG_DPI)
@@ -174,11 +183,10 @@ def trajectory_error_2d(joints, sketch):
 
     sk = build_sketch(sketch.get("keypose_2d"), sketch.get("keypose_at", "first"),
                       sketch.get("trajectories_2d"), sketch["camera"], n_frames=len(joints))
-    m = sk["traj_mask"]
-    if not m.any():
+    if not sk["traj_mask"].any():
         return 0.0
-    p = sketch["camera"].project(np.asarray(joints)[:, list(TRAJECTORY_JOINTS)])
-    return float(np.linalg.norm(p - sk["trajectory"], axis=-1)[m].mean())
+    return trajectory_error(sketch["camera"].project(np.asarray(joints)), sk["trajectory"],
+                            TRAJECTORY_JOINTS, sk["traj_mask"])
 
 
 def _overlay(ax, x, sketch):
@@ -207,8 +215,7 @@ def guidance_steps_figure(result, sketch):
         x, err, sec = result[k]
         _overlay(ax, x, sketch)
         ax.set_title(f"{k} iterations\nerr {err:.3f}, {sec:.2f} s", fontsize=7)
-        ax.set_aspect("equal")
-        ax.tick_params(labelsize=6)
+    _share_limits(axes)
     fig.set_dpi(FIG_DPI)
     return fig
 
@@ -229,13 +236,10 @@ def baselines_comparison(generator, windows, texts, seed=0, steps=50, lifter=Non
     "err3d", "seconds", "joints"}}`` (errors: mean over windows of the projected / 3D
     trajectory error over the drawn frames, plus ``conds``, ``sketches`` and ``cameras``)."""
     from physlab.motion.baselines import lift
-    from physlab.motion.evaluate import GUIDED, UNGUIDED, eval_conditions
+    from physlab.motion.evaluate import GUIDED, UNGUIDED, draw_conditions, eval_conditions
 
     conds = eval_conditions(np.asarray(windows), seed=seed)
-    rng = np.random.default_rng(seed + 1)
-    cams = [random_camera(rng) for _ in conds]
-    sketches = [sketch_kwargs(c, cam, rng=np.random.default_rng(seed + 2 + i), noise=noise)
-                for i, (c, cam) in enumerate(zip(conds, cams))]
+    cams, sketches = draw_conditions(conds, seed=seed, noise=noise)
     methods = {"text only": lambda t, k, i: generator(t, seed=seed + i, steps=steps)}
     if database is not None:
         methods["retrieval"] = lambda t, k, i: database(t, **k)
@@ -257,8 +261,8 @@ def baselines_comparison(generator, windows, texts, seed=0, steps=50, lifter=Non
         xs = [f(t, k, i) for i, (t, k) in enumerate(zip(texts, sketches))]
         sec = (time.perf_counter() - tic) / len(xs)
         e2 = [trajectory_error_2d(x, k) for x, k in zip(xs, sketches)]
-        e3 = [float(np.linalg.norm(x[:, list(TRAJECTORY_JOINTS)] - c.trajectory,
-                                   axis=-1)[c.mask].mean()) for x, c in zip(xs, conds)]
+        e3 = [trajectory_error(x, c.trajectory, TRAJECTORY_JOINTS, c.mask)
+              for x, c in zip(xs, conds)]
         out[name] = {"err2d": float(np.mean(e2)), "err3d": float(np.mean(e3)),
                      "seconds": sec, "joints": np.stack(xs)}
     out["conds"], out["sketches"], out["cameras"] = conds, sketches, cams
@@ -280,11 +284,7 @@ def baselines_figure(result, index=None, methods=None):
         err = trajectory_error_2d(result[name]["joints"][index], sketch)      # this window
         ax.set_title(name.replace(" + ", "\n+ ") + f"\n2D err {err:.3f}", fontsize=7)
         ax.tick_params(labelsize=6)
-    lim = np.array([ax.get_xlim() + ax.get_ylim() for ax in axes])
-    for ax in axes:
-        ax.set_xlim(lim[:, 0].min(), lim[:, 1].max())
-        ax.set_ylim(lim[:, 2].min(), lim[:, 3].max())
-        ax.set_aspect("equal", adjustable="box")
+    _share_limits(axes)
     fig.suptitle(f"held-out window {index}: the drawing (red) and each method's motion seen "
                  f"from the drawing's view (blue)", fontsize=8)
     fig.set_dpi(FIG_DPI)

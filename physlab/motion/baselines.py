@@ -80,10 +80,9 @@ class MotionRetrieval:
     def from_training_data(cls, data_root=None, **kwargs):
         """The database of every training window (every Bandai-Namco take but the held-out
         002), 40 frames, stride 10."""
-        from .dataset import load_clips, make_windows, split_by_take
+        from .train import training_windows
 
-        train, _ = split_by_take(load_clips(data_root))
-        win = make_windows(train, length=40, stride=10)
+        win, _ = training_windows(data_root)
         return cls(win.joints, win.text, contents=win.content, **kwargs)
 
     def _embedder(self):
@@ -224,8 +223,7 @@ def train_lifter(out, steps=3000, batch_size=64, lr=3e-4, seed=0, data_root=None
     from .align import sketch_batch
     from .checkpoint import CHECKPOINT_KIND, CHECKPOINT_VERSION, load_checkpoint, \
         save_checkpoint
-    from .dataset import load_clips, make_windows, read_labels, split_by_take
-    from .train import condition_batch
+    from .train import condition_batch, training_windows
 
     if num_threads:
         torch.set_num_threads(int(num_threads))
@@ -233,13 +231,7 @@ def train_lifter(out, steps=3000, batch_size=64, lr=3e-4, seed=0, data_root=None
     torch.manual_seed(seed)
     rng = np.random.default_rng(seed)
     g = torch.Generator().manual_seed(seed)
-    ids = None
-    if max_clips:
-        ids = [Path(r["file"]).stem for r in read_labels(data_root)
-               if r["take"] != "002"][:max_clips]
-    clips = load_clips(data_root, clip_ids=ids)
-    train_clips, _ = split_by_take(clips) if ids is None else (clips, None)
-    joints = make_windows(train_clips, length=40, stride=10).joints
+    joints = training_windows(data_root, max_clips)[0].joints
     cfg = LifterConfig()
     lifter = Lifter(cfg)
     opt = torch.optim.AdamW(lifter.parameters(), lr=lr, weight_decay=0.01)

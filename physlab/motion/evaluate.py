@@ -638,6 +638,21 @@ def sketch_conditions(joints, protocol="cross", seed=0):
     return out
 
 
+def draw_conditions(conds, seed=0, noise=0.0):
+    """Each condition drawn as a user would (Table 1's setting): a random storyboard view per
+    condition (:func:`~physlab.motion.camera.random_camera`, supp. B ranges, seeded by
+    ``seed + 1``) and the projected keypose / trajectories (:func:`~physlab.motion.camera.
+    sketch_kwargs`, joint noise ``noise``). Returns ``(cameras, sketches)``: lists of
+    :class:`~physlab.motion.camera.Camera` and of ``generate`` keywords."""
+    from .camera import random_camera, sketch_kwargs
+
+    rng = np.random.default_rng(seed + 1)
+    cams = [random_camera(rng) for _ in conds]
+    sketches = [sketch_kwargs(c, cam, rng=np.random.default_rng(seed + 2 + i), noise=noise)
+                for i, (c, cam) in enumerate(zip(conds, cams))]
+    return cams, sketches
+
+
 def evaluate_sketch(control, windows=64, steps=50, seed=0, noise=0.0, progress=True,
                     data_root=None, out=None, protocol="cross", lifter=None, direct_2d=None,
                     retrieval=False, evaluator=None, guidance_only=False,
@@ -659,15 +674,13 @@ def evaluate_sketch(control, windows=64, steps=50, seed=0, noise=0.0, progress=T
 
     Returns ``{row: metrics}`` (:data:`SKETCH_COLUMNS`, plus the evaluator's columns when
     ``evaluator`` is given: ``"default"`` or a path)."""
-    from .camera import random_camera, sketch_kwargs
     from .sampling import CONTROL_TEXT_GUIDANCE, TEXT_GUIDANCE
 
     n = _check_windows(windows)
     gen = _load(control, "--control")
     data = held_out_windows(n, data_root=data_root)
     conds = sketch_conditions(data["joints"], protocol, seed=seed)
-    rng = np.random.default_rng(seed + 1)
-    cams = [random_camera(rng) for _ in conds]
+    cams, sketches = draw_conditions(conds, seed=seed, noise=noise)
     kw = {"steps": int(steps), "seed": int(seed), "progress": progress}
     text_motion = _text_motion_metrics(evaluator, data, seed)
 
@@ -677,8 +690,6 @@ def evaluate_sketch(control, windows=64, steps=50, seed=0, noise=0.0, progress=T
     rows = {"real clips": metrics(data["joints"])}
     x, s = _sample(gen, data, conds, False, label="text only", guidance=TEXT_GUIDANCE, **kw)
     rows["text only"] = metrics(x, s)
-    sketches = [sketch_kwargs(c, cam, rng=np.random.default_rng(seed + 2 + i), noise=noise)
-                for i, (c, cam) in enumerate(zip(conds, cams))]
     if retrieval:
         from .baselines import MotionRetrieval
 
@@ -739,7 +750,6 @@ def evaluate_alignment_ablation(variants, windows=64, steps=50, seed=0, noise=0.
     ablation) of each aligned checkpoint in ``variants`` ``{row name: path}`` (e.g. trained
     with ``--lambda-recon 0``), on the held-out windows drawn as in :func:`evaluate_sketch`
     (same conditions, views and noise for every row). Returns ``{row: metrics}``."""
-    from .camera import random_camera, sketch_kwargs
     from .sampling import CONTROL_TEXT_GUIDANCE
 
     if not variants:
@@ -753,10 +763,7 @@ def evaluate_alignment_ablation(variants, windows=64, steps=50, seed=0, noise=0.
                              f"--stage align)")
     data = held_out_windows(n, data_root=data_root)
     conds = sketch_conditions(data["joints"], protocol, seed=seed)
-    rng = np.random.default_rng(seed + 1)
-    cams = [random_camera(rng) for _ in conds]
-    sketches = [sketch_kwargs(c, cam, rng=np.random.default_rng(seed + 2 + i), noise=noise)
-                for i, (c, cam) in enumerate(zip(conds, cams))]
+    cams, sketches = draw_conditions(conds, seed=seed, noise=noise)
     text_motion = _text_motion_metrics(evaluator, data, seed)
     rows = {}
     for name, g in gens.items():

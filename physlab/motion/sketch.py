@@ -410,15 +410,20 @@ class Sketch:
         origin = np.array([pelvis0[0] - ppu * p0[0], pelvis0[1] + ppu * p0[1]])
         return origin, float(ppu)
 
+    def trajectories_px(self, frames=40, by_speed=False):
+        """:func:`attach_trajectories` of the trajectory strokes to the joints (to the canvas
+        centre while there are none): ``({joint_name: (frames, 2) px}, keypose_at)``."""
+        anchor = (self.joints if self.joints is not None else
+                  np.tile(np.array(self.size, dtype=float) / 2, (len(JOINT_NAMES), 1)))
+        return attach_trajectories(self.strokes, anchor, frames, by_speed)
+
     def conditions(self, frames=40, by_speed=False, detector=None):
         """The keywords of :func:`physlab.motion.generate` for this sketch: ``action``,
         ``keypose_2d`` ((22, 2) normalised units or None), ``trajectories_2d``, ``camera``,
         ``keypose_at``. Snaps the joints first if there are pose strokes but no joints."""
         if self.joints is None and any(s.kind == "pose" for s in self.strokes):
             self.keypose(detector)
-        anchor = (self.joints if self.joints is not None else
-                  np.tile(np.array(self.size, dtype=float) / 2, (len(JOINT_NAMES), 1)))
-        trajs_px, keypose_at = attach_trajectories(self.strokes, anchor, frames, by_speed)
+        trajs_px, keypose_at = self.trajectories_px(frames, by_speed)
         if self.joints is None and not trajs_px:
             raise ValueError("the sketch is empty: draw a stick figure and/or trajectory "
                              "strokes")

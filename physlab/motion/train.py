@@ -87,6 +87,7 @@ import torch.nn.functional as F
 
 
 from .dataset import (
+    TEST_TAKES,
     load_clips,
     make_windows,
     mirror_windows,
@@ -121,6 +122,7 @@ __all__ = [
     "load_model",
     "main",
     "prepare_data",
+    "training_windows",
     "save_checkpoint",
     "train",
     "warmup_cosine_lr",
@@ -281,6 +283,19 @@ def _text_cache(texts, cfg: TrainConfig):
     return cache
 
 
+def training_windows(data_root=None, max_clips=0, stride=10):
+    """The 40-frame training windows (every Bandai-Namco take but the held-out 002, or the
+    first ``max_clips`` training clips for quick runs) and the sorted list of their takes."""
+    ids = None
+    if max_clips:
+        rows = [r for r in read_labels(data_root) if r["take"] not in TEST_TAKES]
+        ids = [Path(r["file"]).stem for r in rows[:max_clips]]
+    clips = load_clips(data_root, clip_ids=ids)
+    train_clips, _ = split_by_take(clips) if ids is None else (clips, None)
+    return (make_windows(train_clips, length=40, stride=stride),
+            sorted({c.take for c in train_clips}))
+
+
 def prepare_data(cfg: TrainConfig, stats: FeatureStats | None = None, cache=None,
                  representation="relative"):
     """Training windows as tensors.
@@ -298,14 +313,8 @@ def prepare_data(cfg: TrainConfig, stats: FeatureStats | None = None, cache=None
     ``cache`` (:class:`~physlab.motion.text.EmbeddingCache`), ``train_takes`` (sorted list of
     the Bandai-Namco takes trained on; stored in the checkpoint).
     """
-    root = cfg.data_root or None
-    ids = None
-    if cfg.max_clips:
-        rows = [r for r in read_labels(root) if r["take"] != "002"]
-        ids = [Path(r["file"]).stem for r in rows[:cfg.max_clips]]
-    clips = load_clips(root, clip_ids=ids)
-    train_clips, _ = split_by_take(clips) if ids is None else (clips, None)
-    win = make_windows(train_clips, length=40, stride=cfg.window_stride)
+    win, train_takes = training_windows(cfg.data_root or None, cfg.max_clips,
+                                        cfg.window_stride)
     if cfg.mirror:
         win = mirror_windows(win)
     feats = np.stack([encode_motion(w, representation, fps=win.fps)
@@ -322,7 +331,7 @@ def prepare_data(cfg: TrainConfig, stats: FeatureStats | None = None, cache=None
             "text_index": torch.tensor([index[t] for t in win.text], dtype=torch.int64),
             "text_emb": torch.tensor(E, dtype=torch.float32), "texts": texts,
             "stats": stats, "cache": cache,
-            "train_takes": sorted({c.take for c in train_clips})}
+            "train_takes": train_takes}
 
 
 def condition_batch(windows, rng, min_t_r=5, drop_keypose=0.0, drop_trajectory=0.0):

@@ -22,7 +22,7 @@ import time
 import numpy as np
 
 from physlab.motion.camera import Camera, to_pixels
-from physlab.motion.sketch import Sketch, Stroke, TemplateSnapper, attach_trajectories
+from physlab.motion.sketch import Sketch, Stroke, TemplateSnapper
 from physlab.motion.skeleton import JOINT_NAMES, PARENTS
 
 __all__ = ["SketchCanvas", "COLORS"]
@@ -291,11 +291,7 @@ class SketchCanvas:
         self._say(msg)
 
     def _pixel_trajectories(self):
-        anchor = (self.sketch.joints if self.sketch.joints is not None else
-                  np.tile(np.array(self.sketch.size, float) / 2, (len(JOINT_NAMES), 1)))
-        trajs, at = attach_trajectories(self.sketch.strokes, anchor,
-                                        by_speed=bool(self.by_speed.value))
-        return trajs, at
+        return self.sketch.trajectories_px(by_speed=bool(self.by_speed.value))
 
     def projected_motion_px(self, joints=None):
         """``(40, 22, 2)`` canvas pixels of a motion (default: the last generated) seen from the

@@ -170,15 +170,11 @@ def drawn(real_data, gen):
     """8 held-out windows, each Cross condition drawn in a random storyboard view (supp. B
     ranges, the evaluation's construction): text only, the 2D encoders alone and with the 2D
     guidance, 20 DDIM steps."""
-    from physlab.motion.camera import random_camera, sketch_kwargs
-    from physlab.motion.evaluate import sketch_conditions, sketch_metrics
+    from physlab.motion.evaluate import draw_conditions, sketch_conditions, sketch_metrics
 
     data = held_out_windows(8)
     conds = sketch_conditions(data["joints"], "cross", seed=0)
-    rng = np.random.default_rng(1)
-    cams = [random_camera(rng) for _ in conds]
-    sk = [sketch_kwargs(c, cam, rng=np.random.default_rng(2 + i))
-          for i, (c, cam) in enumerate(zip(conds, cams))]
+    cams, sk = draw_conditions(conds, seed=0)
     rows, clips = {}, {}
     for label, opts in (("text", None), ("networks", UNGUIDED), ("guided", GUIDED)):
         x = np.stack([gen(data["text"][i], seed=i, steps=20,
