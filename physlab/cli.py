@@ -93,6 +93,7 @@ EXAMPLES = """examples:
   physlab inbetween key0.png key1.png --skeleton0 k0.json --skeleton1 k1.json --frames 11 --out frames/
   physlab generate "a person walks" --trajectory pelvis=path.npy --out walk.bvh
   physlab train motion --stage base --steps 4000 --out runs/base.pt
+  physlab evaluate inbetween --pairs my_pair/ --out runs/my_pair
   physlab evaluate motion --control data/motion/sketch2anim_control.pt --windows 16
   physlab reproduce --lessons 01 04 --out reports
 """
@@ -177,6 +178,8 @@ def _parser():
                    help="flags of the training (all of them: physlab train motion --help)")
     e = sub.add_parser("evaluate", help="physlab evaluate inbetween|motion ...",
                        epilog="examples:\n  physlab evaluate inbetween --pairs 2 --size 256\n"
+                              "  physlab evaluate inbetween --pairs my_pair/ --out runs/my_pair"
+                              "   (one's own keys, skeletons, gt_<t>.png)\n"
                               "  physlab evaluate motion --control data/motion/"
                               "sketch2anim_control.pt --windows 16\n(all flags: physlab "
                               "evaluate inbetween --help, physlab evaluate motion --help)")
@@ -257,36 +260,17 @@ def _dispatch(args):
             print(p.name)
 
 
-def _read_skeleton(path, flag):
-    """A :class:`~physlab.inbetween.Skeleton` from JSON (``Skeleton.to_dict``) or an
-    AnimatedDrawings ``char_cfg.yaml``."""
-    import json
-
-    from physlab.inbetween import Skeleton
-
-    path = Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(f"{flag} {path}: no such file")
-    if path.suffix.lower() in (".yaml", ".yml"):
-        return Skeleton.from_animated_drawings(path)
-    try:
-        d = json.loads(path.read_text(encoding="utf-8"))
-        return Skeleton(d["names"], d["parents"], d["xy"])
-    except (ValueError, KeyError, TypeError) as e:
-        raise ValueError(f"{flag} {path}: not a skeleton file (JSON with names, parents, xy in "
-                         f"pixels): {e}") from None
-
-
 def _inbetween(args):
     import numpy as np
 
     from physlab.image import read_image, to_uint8
     from physlab.inbetween import inbetween
+    from physlab.inbetween.pair_folder import read_skeleton
     from physlab.inbetween.plots import contact_sheet
 
     keys = [read_image(k, name) for k, name in ((args.key0, "key0"), (args.key1, "key1"))]
-    s0, s1 = (_read_skeleton(args.skeleton0, "--skeleton0"),
-              _read_skeleton(args.skeleton1, "--skeleton1"))
+    s0, s1 = (read_skeleton(args.skeleton0, "--skeleton0"),
+              read_skeleton(args.skeleton1, "--skeleton1"))
     res = inbetween(keys[0], keys[1], s0, s1, args.frames, progress=True)
     out = Path(args.out)
     for k, frame in enumerate(res.frames):

@@ -306,6 +306,125 @@ def test_mesh_from_mask_with_joint_points():
     assert me.min_angle() >= MIN_ANGLE_TOL
 
 
+# ---------------------------------------------------------------------------------- holes
+def boundary_loop_count(m):
+    """Number of closed boundary loops of a mesh (connected components of its boundary edges)."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    e = m.boundary_edges()
+    g = coo_matrix((np.ones(len(e)), (e[:, 0], e[:, 1])), shape=(m.n, m.n))
+    n, labels = connected_components(g, directed=False)
+    return len(np.unique(labels[np.unique(e)]))
+
+
+def ring_mask(r_in=20.0, r_out=40.0, size=120):
+    d = np.hypot(*(np.mgrid[:size, :size] - (size - 1) / 2))
+    return (d <= r_out) & (d >= r_in)
+
+
+def akimbo_character(size=256):
+    """The procedural character with both hands on the hips (RGBA uint8): two enclosed gaps."""
+    from physlab.inbetween import character_skeleton, pose_character, render_character
+
+    sk = pose_character(character_skeleton(size), left_upper_arm=-10, left_forearm=110,
+                        right_upper_arm=10, right_forearm=-110)
+    return render_character(sk, "flat", size, seed=0)
+
+
+def test_fill_small_holes_analytic():
+    m = np.ones((30, 40), bool)
+    m[5:8, 5:8] = False  # 9-px speckle
+    m[5:11, 20:26] = False  # 36-px gap
+    m[0:3, 35:40] = False  # a notch open to the border: no hole
+    m[20, 20] = m[21, 21] = False  # two pixels touching at a corner: one 2-px hole
+    m[20, 30:35] = m[21:25, 34] = False  # an L of 9 px, open nowhere
+    holes = ~m
+    holes[0:3, 35:40] = False
+    filled = mesh.fill_small_holes(m)  # MIN_HOLE_AREA = 16 px
+    np.testing.assert_array_equal(filled, m | (holes & ~(np.arange(40) >= 20)[None]
+                                                 | holes & (np.arange(30) >= 20)[:, None]))
+    assert filled[5:8, 5:8].all() and not filled[5:11, 20:26].any()
+    assert not filled[0:3, 35:40].any()
+    np.testing.assert_array_equal(mesh.fill_small_holes(m, 0), m)
+    np.testing.assert_array_equal(mesh.fill_small_holes(m, 36), filled)  # 36 px: kept
+    np.testing.assert_array_equal(mesh.fill_small_holes(m, 37), m | holes)
+    np.testing.assert_array_equal(mesh.fill_small_holes(m, np.inf), m | holes)
+    for bad in (-1, float("nan"), "big"):
+        with pytest.raises(ValueError, match="min_hole_area must be"):
+            mesh.fill_small_holes(m, bad)
+
+
+def test_loops_are_disjoint_analytic():
+    square = lambda c, h: np.array([[c - h, c - h], [c + h, c - h], [c + h, c + h], [c - h, c + h]])
+    assert mesh.loops_are_disjoint([square(0, 2), square(0, 1)[::-1]])  # nested: fine
+    assert not mesh.loops_are_disjoint([square(0, 2), square(1.5, 1)])  # crossing
+    assert not mesh.loops_are_disjoint([square(0, 2), square(1, 1)])  # touching along an edge
+    bowtie = np.array([[0.0, 0], [1, 1], [1, 0], [0, 1]])
+    assert not mesh.loops_are_disjoint([bowtie]) and not mesh.polygon_is_simple(bowtie)
+
+
+def test_ring_mask_gives_a_mesh_with_a_hole():
+    m = ring_mask()
+    outer, holes = mesh.boundary_loops(m)
+    assert mesh.polygon_area(outer) > 0 and len(holes) == 1 and mesh.polygon_area(holes[0]) < 0
+    assert mesh.loops_are_disjoint([outer] + holes)
+    me = mesh.mesh_from_mask(m)
+    assert boundary_loop_count(me) == 2
+    assert me.area == pytest.approx(m.sum(), rel=0.03)  # 3760 px of the 20..40 ring
+    assert me.area == pytest.approx(np.pi * (40**2 - 20**2), rel=0.03)
+    # Green's theorem holds with the hole: it runs the other way round (interior on the left)
+    assert boundary_shoelace(me) == pytest.approx(me.area)
+    assert not mesh.point_in_mesh(me, [[59.5, 59.5], [59.5, 45.0]]).any()  # the hole is empty
+    assert me.is_positively_oriented and me.min_angle() >= MIN_ANGLE_TOL
+    assert me.area == pytest.approx(3801.0, abs=1.0)  # reference (ε = 2 px chords)
+    # the explicit way to mesh over holes; a smaller hole than min_hole_area is filled too
+    for full in (mesh.mesh_from_mask(m, min_hole_area=np.inf),
+                 mesh.mesh_from_mask(m, min_hole_area=ring_mask(0, 20).sum() + 1)):
+        assert boundary_loop_count(full) == 1
+        assert full.area == pytest.approx(ring_mask(0, 40).sum(), rel=0.03)
+    with pytest.raises(ValueError, match="outside the region to mesh"):
+        mesh.mesh_from_mask(m, points=[[59.5, 59.5]])  # a joint in the hole
+
+
+def test_thin_ring_walls_mesh_without_crossing_loops():
+    m = ring_mask(12.0, 14.5, size=40)  # a 2.5-px wall: Douglas-Peucker chords would cross
+    me = mesh.mesh_from_mask(m)
+    assert boundary_loop_count(me) == 2
+    assert me.area == pytest.approx(m.sum(), rel=0.1)
+    assert boundary_shoelace(me) == pytest.approx(me.area)
+
+
+def test_arm_on_the_hip_leaves_a_hole():
+    img = akimbo_character()
+    fm = mesh.foreground_mask(img)  # alpha path: the gaps are transparent
+    gaps = mesh.fill_small_holes(fm, np.inf) & ~fm
+    n_gaps = ndi.label(gaps)[1]
+    assert n_gaps == 2 and gaps.sum() > 2 * mesh.MIN_HOLE_AREA
+    me = mesh.mesh_from_mask(fm)
+    assert boundary_loop_count(me) == 3  # the outline and one loop per gap
+    assert me.area == pytest.approx(fm.sum(), rel=0.05)
+    ij = np.argwhere(ndi.binary_erosion(gaps, iterations=2))  # well inside the gaps
+    assert len(ij) and not mesh.point_in_mesh(me, ij[:, ::-1].astype(float)).any()
+    assert me.is_positively_oriented and me.min_angle() >= MIN_ANGLE_TOL
+    # fill_holes=True: the old behaviour, meshed over
+    filled = mesh.foreground_mask(img, fill_holes=True)
+    assert np.array_equal(filled, fm | gaps)
+    assert boundary_loop_count(mesh.mesh_from_mask(filled)) == 1
+    # on paper (no alpha) holes are filled by default and kept on request
+    from physlab.image import over_white, to_uint8
+
+    paper = to_uint8(over_white(img))
+    assert not (mesh.fill_small_holes(mesh.foreground_mask(paper), np.inf)
+                & ~mesh.foreground_mask(paper)).any()
+    kept = mesh.foreground_mask(paper, fill_holes=False)  # every hole: gaps and light fills
+    kept_holes = mesh.fill_small_holes(kept, np.inf) & ~kept
+    labels, _ = ndi.label(gaps)
+    assert all((kept_holes & (labels == k)).any() for k in (1, 2))
+    with pytest.raises(ValueError, match="fill_holes must be None"):
+        mesh.foreground_mask(img, fill_holes="yes")
+
+
 # ---------------------------------------------------------------------------------- point location
 def test_locate_points_barycentrics_reproduce_points():
     m = mesh.disk_mesh((0.0, 0.0), 5.0, max_area=0.5)

@@ -6,14 +6,18 @@ Sobolev-preconditioned quasi-Newton with injectivity line search), :mod:`.skinni
 bounded biharmonic weights, ARAP: comparisons), :mod:`.frame_interpolation` (optical-flow frame
 interpolation, the RIFE stand-in), :mod:`.blend` (image matrix, blending costs, Dijkstra
 path), :mod:`.metrics` (PSNR, SSIM, Chamfer), :mod:`.baselines`, :mod:`.retarget` (BVH →
-drawing skeletons), :mod:`.pipeline` (:func:`inbetween`), :mod:`.characters` (procedural
-cartoon characters with ground-truth in-betweens, the benchmark).
+drawing skeletons), :mod:`.occlusion` (occlusion regions, T-junctions, layered templates),
+:mod:`.pipeline` (:func:`inbetween`), :mod:`.characters` (procedural cartoon characters with
+ground-truth in-betweens, the benchmarks).
 """
 from .characters import (ADJACENT_PARTS, CHARACTER_JOINTS, CHARACTER_PARTS, CHARACTER_STYLES,
-                         PAINT_ORDER, InbetweenPair, character_part_labels, character_skeleton,
-                         inbetween_benchmark, part_overlaps, pose_character, render_character)
+                         PAINT_ORDER, InbetweenPair, character_occlusions, character_part_labels,
+                         character_skeleton, inbetween_benchmark, occlusion_benchmark,
+                         paint_order, part_overlaps, pose_character, render_character)
 from .deform import (SymmetricDirichletDeformer, deform, symmetric_dirichlet_energy,
                      symmetric_dirichlet_gradient)
+from .occlusion import (LayeredTemplate, Occlusion, build_layered_template, load_occlusions,
+                        save_occlusions, suggest_occlusions)
 from .pipeline import InbetweenResult, inbetween
 from .skeleton import Skeleton, check_compatible, interpolate
 from .template import Template, build_template
@@ -23,4 +27,7 @@ __all__ = ["Skeleton", "check_compatible", "interpolate", "Template", "build_tem
            "symmetric_dirichlet_gradient", "inbetween", "InbetweenResult",
            "CHARACTER_STYLES", "CHARACTER_JOINTS", "CHARACTER_PARTS", "ADJACENT_PARTS",
            "PAINT_ORDER", "character_skeleton", "pose_character", "render_character",
-           "character_part_labels", "part_overlaps", "InbetweenPair", "inbetween_benchmark"]
+           "character_part_labels", "part_overlaps", "InbetweenPair", "inbetween_benchmark",
+           "occlusion_benchmark", "character_occlusions", "paint_order", "Occlusion",
+           "LayeredTemplate", "build_layered_template", "suggest_occlusions", "save_occlusions",
+           "load_occlusions"]

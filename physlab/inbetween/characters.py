@@ -84,8 +84,11 @@ __all__ = [
     "render_character",
     "character_part_labels",
     "part_overlaps",
+    "paint_order",
+    "character_occlusions",
     "InbetweenPair",
     "inbetween_benchmark",
+    "occlusion_benchmark",
 ]
 
 #: Visual styles of :func:`render_character`:
@@ -664,13 +667,37 @@ def _part_colour(frame, style, look, a, b, light):
 
 
 # --------------------------------------------------------------------------- rendering
+def paint_order(skeleton):
+    """Back-to-front order of the parts at this pose.
+
+    Without joint depths (``skeleton.depth is None``) this is :data:`PAINT_ORDER`. With
+    depths (smaller = nearer the viewer, :class:`~physlab.inbetween.Skeleton`), each part's
+    depth is the mean depth of its bone's two joints and parts are painted farthest first,
+    :data:`PAINT_ORDER` breaking ties — so an arm given a smaller depth than the torso crosses
+    *in front of* it, the occlusions of Brodt & Bessmeltsev's Fig. 2d.
+
+    Returns
+    -------
+    tuple of part names, back to front.
+    """
+    if skeleton.depth is None:
+        return PAINT_ORDER
+    d = skeleton.depth
+    part_depth = {}
+    for name, (joint, _, _) in _PART_SPECS.items():
+        j = CHARACTER_JOINTS.index(joint)
+        part_depth[name] = 0.5 * (d[j] + d[_PARENTS[j]])
+    return tuple(sorted(PAINT_ORDER, key=lambda n: (-part_depth[n], PAINT_ORDER.index(n))))
+
+
 def render_character(skeleton, style="shaded", size=512, seed=0):
     """Paint the cartoon character at the pose ``skeleton``.
 
     Every part is painted from its SDF in its bone's local frame (antialiased: coverage
     ``clip(0.5 - sdf, 0, 1)``), evaluated only inside the part's bounding box, with a fill
     texture and a near-black ink outline just inside its edge; parts are layered in
-    :data:`PAINT_ORDER` (see the module docstring).
+    :data:`PAINT_ORDER` (see the module docstring), or by joint depth when the skeleton has
+    depths (:func:`paint_order`).
 
     Parameters
     ----------
@@ -696,7 +723,7 @@ def render_character(skeleton, style="shaded", size=512, seed=0):
     alpha = np.zeros((size, size))
     w = max(1.6, _INK_WIDTH[style] * size / 512)
     ink_col = INK if style != "sketchy" else np.array([0.16, 0.14, 0.22])
-    for name in PAINT_ORDER:
+    for name in paint_order(skeleton):
         f = frames[name]
         y0, y1, x0, x1 = f.box
         if y1 <= y0 or x1 <= x0:
@@ -733,7 +760,7 @@ def character_part_labels(skeleton, size=512):
     _check_skeleton(skeleton, size)
     labels = np.full((size, size), -1, dtype=np.int8)
     frames = {f.name: f for f in _part_frames(skeleton, size)}
-    for name in PAINT_ORDER:
+    for name in paint_order(skeleton):
         f = frames[name]
         y0, y1, x0, x1 = f.box
         if y1 <= y0 or x1 <= x0:
@@ -786,6 +813,73 @@ def part_overlaps(skeleton, size=512, margin=1.0):
     return out
 
 
+def _full_sdf(frame, size):
+    """A part's SDF over the whole image (+inf outside its box)."""
+    out = np.full((size, size), np.inf)
+    y0, y1, x0, x1 = frame.box
+    if y1 > y0 and x1 > x0:
+        out[y0:y1, x0:x1] = frame.sdf(*frame.coords())
+    return out
+
+
+def character_occlusions(skeleton, size=512, min_area=30, min_run=3):
+    """The true occlusion regions and T-junctions of the character at this pose.
+
+    A pixel is *occluded* where a part lies over another part that does not share a joint
+    with it (:func:`paint_order`, :data:`ADJACENT_PARTS`). Each connected component of
+    occluded pixels (at least ``min_area`` px) is one
+    :class:`~physlab.inbetween.occlusion.Occlusion`: its *front* parts are those visible in it,
+    its *back* parts the others covering it. Its T-junctions are the points where the region's
+    outline switches from following the front parts' silhouette to the back parts' — where, in
+    the drawing, a back part's ink line ends against the occluder's (Brodt & Bessmeltsev
+    Fig. 7); runs shorter than ``min_run`` outline points are ignored. This is the ground
+    truth a user would annotate (Sec. 4); tests and the occlusion benchmark use it.
+
+    Returns
+    -------
+    list of Occlusion (``mask`` (size, size) bool, ``t_junctions`` (m, 2) px) with ``label``
+    ``"front+parts/back+parts"``.
+    """
+    from scipy import ndimage
+    from skimage.measure import find_contours
+
+    from .occlusion import Occlusion, switch_points
+
+    size = _check_size(size)
+    _check_skeleton(skeleton, size)
+    frames = {f.name: f for f in _part_frames(skeleton, size)}
+    order = paint_order(skeleton)
+    sdf = {n: _full_sdf(frames[n], size) for n in order}
+    inside = {n: sdf[n] < 0 for n in order}
+    occluded = np.zeros((size, size), bool)
+    for i, back in enumerate(order):
+        for front in order[i + 1:]:
+            if frozenset((front, back)) not in ADJACENT_PARTS:
+                occluded |= inside[back] & inside[front]
+    visible = np.full((size, size), -1)
+    for i, n in enumerate(order):
+        visible[inside[n]] = i
+    labels, k = ndimage.label(occluded)
+    out = []
+    for c in range(1, k + 1):
+        comp = labels == c
+        if comp.sum() < min_area:
+            continue
+        front = sorted({order[i] for i in np.unique(visible[comp])})
+        back = sorted(n for n in order if n not in front and np.any(inside[n] & comp))
+        if not back:
+            continue
+        sd_front = np.min([sdf[n] for n in front], axis=0)
+        sd_back = np.min([sdf[n] for n in back], axis=0)
+        contour = max(find_contours(np.pad(comp, 1).astype(float), 0.5), key=len)
+        yx = contour[:-1] - 1.0
+        ij = np.clip(np.round(yx).astype(int), 0, size - 1)
+        on_front = np.abs(sd_front[ij[:, 0], ij[:, 1]]) < np.abs(sd_back[ij[:, 0], ij[:, 1]])
+        out.append(Occlusion(comp, switch_points(yx[:, ::-1], on_front, min_run),
+                             label=f"{'+'.join(front)}/{'+'.join(back)}"))
+    return out
+
+
 # --------------------------------------------------------------------------- benchmark
 @dataclass(frozen=True, eq=False)
 class InbetweenPair:
@@ -794,7 +888,8 @@ class InbetweenPair:
     Attributes
     ----------
     name : str.
-    kind : "tight" (every bone's local angle changes by ≤ 25°) or "far" (some bone's by > 90°).
+    kind : "tight" (every bone's local angle changes by ≤ 25°), "far" (some bone's by > 90°)
+        or "occluded" (limbs cross the body: :func:`occlusion_benchmark`).
     style : one of :data:`CHARACTER_STYLES`.
     seed : int, the character's colours and pattern phases.
     skeleton0, skeleton1 : Skeleton, the key poses (topology of :func:`character_skeleton`).
@@ -810,8 +905,8 @@ class InbetweenPair:
     size: int = 512
 
     def __post_init__(self):
-        if self.kind not in ("tight", "far"):
-            raise ValueError(f"kind must be 'tight' or 'far', got {self.kind!r}")
+        if self.kind not in ("tight", "far", "occluded"):
+            raise ValueError(f"kind must be 'tight', 'far' or 'occluded', got {self.kind!r}")
         _check_style(self.style)
         size = _check_size(self.size)
         _check_skeleton(self.skeleton0, size, "skeleton0")
@@ -856,6 +951,12 @@ class InbetweenPair:
             raise ValueError(f"n_frames must be an int >= 2, got {n_frames!r}")
         return _skeleton.interpolate(self.skeleton0, self.skeleton1,
                                  np.linspace(0.0, 1.0, int(n_frames)))
+
+    def occlusions(self):
+        """The true occlusions of both keys: ``(list, list)`` of
+        :class:`~physlab.inbetween.occlusion.Occlusion` (:func:`character_occlusions`)."""
+        return (character_occlusions(self.skeleton0, self.size),
+                character_occlusions(self.skeleton1, self.size))
 
     def angle_changes(self):
         """(J,) degrees, |shortest-arc change| of each bone's local angle (0 for the root)."""
@@ -965,3 +1066,45 @@ def inbetween_benchmark(size=512):
 
     return [InbetweenPair(name, kind, style, seed, pose(k0), pose(k1), size)
             for name, kind, style, seed, k0, k1 in _BENCHMARK]
+
+
+#: Occluding pairs: (name, style, seed, pose0, pose1, joint depths (others 0; smaller = nearer)).
+_OCCLUSION_BENCHMARK = [
+    ("fold_arm", "flat", 20, {"left_upper_arm": 35, "left_forearm": -12},
+     {"left_upper_arm": 60, "left_forearm": 120}, {"left_elbow": -1.0, "left_hand": -1.0}),
+    ("arm_behind", "shaded", 21, {"right_upper_arm": -35, "right_forearm": 12},
+     {"right_upper_arm": -60, "right_forearm": -125}, {"right_elbow": 1.0, "right_hand": 1.0}),
+    ("cross_legs", "patterned", 22, {"left_thigh": -5},
+     {"left_thigh": 40, "left_shin": -8}, {"left_knee": -1.0, "left_foot": -1.0}),
+]
+
+
+def occlusion_benchmark(size=512):
+    """Pairs whose limbs cross the body (Brodt & Bessmeltsev's title case, Fig. 2d).
+
+    ============ =================================================================
+    name         motion
+    ============ =================================================================
+    fold_arm     left forearm swings from hanging to folded across the belly, in front
+    arm_behind   right forearm swings from hanging to folded behind the back
+    cross_legs   left leg crosses in front of the right one
+    ============ =================================================================
+
+    The skeletons carry joint depths (the moving limb nearer or farther than the body), the
+    renderer paints in depth order (:func:`paint_order`), and :meth:`InbetweenPair.occlusions`
+    gives each key's true occlusion regions and T-junctions.
+
+    Returns
+    -------
+    list of :class:`InbetweenPair` of kind "occluded".
+    """
+    size = _check_size(size)
+    rest = character_skeleton(size)
+    out = []
+    for name, style, seed, k0, k1, depth in _OCCLUSION_BENCHMARK:
+        d = {j: 0.0 for j in CHARACTER_JOINTS}
+        d.update(depth)
+        out.append(InbetweenPair(name, "occluded", style, seed,
+                                 pose_character(rest, **k0).with_depth(d),
+                                 pose_character(rest, **k1).with_depth(d), size))
+    return out

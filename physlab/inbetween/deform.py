@@ -409,3 +409,48 @@ def deform(template, targets, x0=None, **options):
         targets = template.targets(targets)
     ctor = {k: options.pop(k) for k in ("mu", "preconditioner", "length_scale") if k in options}
     return SymmetricDirichletDeformer(template, **ctor).solve(targets, x0=x0, **options).x
+
+
+#: largest handle move (px) between two solves of a sequence; bigger frame-to-frame moves are
+#: split into sub-steps along the skeletal interpolation (continuation)
+MAX_HANDLE_STEP = 16.0
+
+
+def substeps(prev, skel, max_step):
+    """Skeletons from ``prev`` (exclusive) to ``skel`` (inclusive) with no handle moving more
+    than ``max_step`` px from one to the next (:func:`~physlab.inbetween.skeleton.interpolate`):
+    the continuation path of :func:`deform_through`, each solve warm-started from the last."""
+    from .skeleton import interpolate
+
+    move = np.linalg.norm(skel.handles() - prev.handles(), axis=1).max()
+    k = max(1, int(np.ceil(move / max_step)))
+    return interpolate(prev, skel, np.arange(1, k + 1) / k) if k > 1 else [skel]
+
+
+def deform_through(deformer, skeletons, x0=None, start=None, max_handle_step=MAX_HANDLE_STEP,
+                   **solve):
+    """Deform through a sequence of poses, each solve warm-started from the previous one.
+
+    Large rotations reached in one solve can get stuck in distorted local minima (the pose
+    term, μ = 200 per px², pulls handles far ahead of the mesh), so a move of more than
+    ``max_handle_step`` px from the last pose (``start``, default: the first skeleton itself)
+    goes through intermediate poses (:func:`substeps`).
+
+    Parameters
+    ----------
+    deformer : SymmetricDirichletDeformer.
+    skeletons : list of posed Skeletons (the template's topology).
+    x0 : (n, 2) start vertices (default the rest mesh), ``start`` the Skeleton they are posed at.
+    solve : options of :meth:`SymmetricDirichletDeformer.solve`.
+
+    Returns
+    -------
+    DeformResult of the last pose.
+    """
+    x, prev, res = x0, start, None
+    for s in skeletons:
+        for q in ([s] if prev is None else substeps(prev, s, max_handle_step)):
+            res = deformer.solve(q.handles(), x0=x, **solve)
+            x = res.x
+        prev = s
+    return res

@@ -21,11 +21,16 @@ LPIPS needs pretrained AlexNet/VGG weights that cannot be fetched offline, so it
 out (:func:`~physlab.inbetween.metrics.lpips_status`). Scores are given for the middle frame
 (t = 0.5, the paper's protocol) and averaged over all in-betweens (keys excluded).
 
+One's own keyframe pair — two keys, their skeletons, and in-betweens drawn by hand where
+there are some — is scored the same way by :func:`evaluate_folder` (``physlab evaluate
+inbetween --pairs DIR``; the folder layout is :mod:`physlab.inbetween.pair_folder`'s).
+
 Run ``python -m physlab.inbetween.evaluate --help``.
 """
 from __future__ import annotations
 
 import sys
+import textwrap
 import time
 from pathlib import Path
 
@@ -35,11 +40,13 @@ from . import metrics
 from .baselines import cross_dissolve, flow_interpolation
 from .blend import render_path
 from .frame_interpolation import FlowInterpolator
-from .pipeline import inbetween
+from .pair_folder import DEFAULT_FRAMES, FOLDER_FORMAT, load_pair_folder
+from .pipeline import _paper_colour, inbetween
+from .template import as_rgba_float
 
-__all__ = ["METHODS", "METRICS", "run_methods", "score_frames", "evaluate_pairs",
-           "summarize", "format_table", "AD_SHOTS", "pose_drawing", "animated_drawing_inbetween",
-           "main"]
+__all__ = ["METHODS", "METRICS", "run_methods", "frame_scores", "score_frames",
+           "comparison_sheet", "evaluate_pairs", "evaluate_folder", "summarize", "format_table",
+           "AD_SHOTS", "pose_drawing", "animated_drawing_inbetween", "main"]
 
 METHODS = ("cross_dissolve", "flow", "physlab_diagonal", "physlab")
 METRICS = ("psnr", "ssim", "cd")
@@ -51,31 +58,75 @@ def run_methods(key0, key1, skeleton0, skeleton1, n_frames, animation=None, inte
                 **options):
     """Frames of every method in :data:`METHODS` for one keyframe pair.
 
+    Every method sees the same keys, as straight RGBA, and returns frames with the channels
+    of the physlab result: 4 (straight RGBA) when a key has transparency, 3 for opaque keys
+    (RGB, grey, or RGBA with alpha 1 everywhere) — :func:`~physlab.inbetween.pipeline.
+    inbetween` composites those over the paper colour (the median background of the keys),
+    and so are the baselines and the diagonal blend here, over the same colour.
+
+    Parameters
+    ----------
+    key0, key1 : (H, W), (H, W, 3) or (H, W, 4) images, uint8 or float in [0, 1], same size.
+    skeleton0, skeleton1, n_frames, animation, options : as for
+        :func:`~physlab.inbetween.pipeline.inbetween`.
+    interpolator : FrameInterpolator shared by the flow baseline and the pipeline (default
+        ``FlowInterpolator()``).
+
     Returns
     -------
-    frames : dict method → (n_frames, H, W, C) float32 (keys at both ends).
+    frames : dict method → (n_frames, H, W, C) float32 (keys at both ends), the same C for
+        every method.
     result : the :class:`~physlab.inbetween.pipeline.InbetweenResult` of the physlab run.
     seconds : dict method → wall time.
     """
+    k0, k1 = as_rgba_float(key0, "key0"), as_rgba_float(key1, "key1")
     interp = FlowInterpolator() if interpolator is None else interpolator
     frames, seconds = {}, {}
     tic = time.perf_counter()
-    frames["cross_dissolve"] = cross_dissolve(key0, key1, n_frames)
-    seconds["cross_dissolve"] = time.perf_counter() - tic
-    tic = time.perf_counter()
-    frames["flow"] = flow_interpolation(key0, key1, n_frames, interp)
-    seconds["flow"] = time.perf_counter() - tic
-    tic = time.perf_counter()
-    res = inbetween(key0, key1, skeleton0, skeleton1, n_frames, animation=animation,
+    res = inbetween(k0, k1, skeleton0, skeleton1, n_frames, animation=animation,
                     interpolator=interp, **options)
     seconds["physlab"] = time.perf_counter() - tic
     frames["physlab"] = res.frames
     tic = time.perf_counter()
+    frames["cross_dissolve"] = cross_dissolve(k0, k1, n_frames)
+    seconds["cross_dissolve"] = time.perf_counter() - tic
+    tic = time.perf_counter()
+    frames["flow"] = flow_interpolation(k0, k1, n_frames, interp)
+    seconds["flow"] = time.perf_counter() - tic
+    tic = time.perf_counter()
     diag = np.asarray(render_path(res.fwd, res.bwd, res.diagonal, interp), np.float32)
-    diag[0], diag[-1] = res.frames[0], res.frames[-1]
-    frames["physlab_diagonal"] = diag[..., :res.frames.shape[-1]]
+    diag[0], diag[-1] = k0, k1  # the keys exactly, as in the physlab result
+    frames["physlab_diagonal"] = diag
     seconds["physlab_diagonal"] = seconds["physlab"] + time.perf_counter() - tic
+    if res.frames.shape[-1] == 3:  # opaque keys: every method on the physlab result's paper
+        paper = _result_paper(res)
+        for m in ("cross_dissolve", "flow", "physlab_diagonal"):
+            a = frames[m][..., 3:4]
+            frames[m] = (frames[m][..., :3] * a + paper * (1.0 - a)).astype(np.float32)
     return frames, res, seconds
+
+
+def _result_paper(result):
+    """(3,) float32, the paper colour :func:`~physlab.inbetween.pipeline.inbetween` put behind
+    the in-betweens of opaque keys: the mean of the keys' median background colours."""
+    (t0, t1) = result.templates
+    return np.float32(0.5) * (_paper_colour(t0.image, t0.mask) + _paper_colour(t1.image, t1.mask))
+
+
+def frame_scores(frame, truth):
+    """PSNR (dB), SSIM and Chamfer distance (×10⁵) of one frame against its ground truth.
+
+    Parameters
+    ----------
+    frame, truth : (H, W[, C]) images of the same size (RGBA composited over white,
+        :mod:`physlab.inbetween.metrics`).
+
+    Returns
+    -------
+    dict ``{"psnr": float, "ssim": float, "cd": float}`` (keys: :data:`METRICS`).
+    """
+    return {"psnr": metrics.psnr(frame, truth), "ssim": metrics.ssim(frame, truth),
+            "cd": metrics.chamfer(frame, truth, scale=metrics.CD_SCALE)}
 
 
 def score_frames(frames, truth):
@@ -94,36 +145,50 @@ def score_frames(frames, truth):
     if len(truth) != n or n < 3:
         raise ValueError(f"need ≥ 3 frames and as many ground-truth frames, got {n} and "
                          f"{len(truth)}")
-    per = {"psnr": [], "ssim": [], "cd": []}
-    for f, g in zip(frames[1:-1], truth[1:-1]):
-        per["psnr"].append(metrics.psnr(f, g))
-        per["ssim"].append(metrics.ssim(f, g))
-        per["cd"].append(metrics.chamfer(f, g, scale=metrics.CD_SCALE))
-    mid = n // 2 - 1
+    per = [frame_scores(f, g) for f, g in zip(frames[1:-1], truth[1:-1])]
     out = {}
-    for k, v in per.items():
-        out[f"{k}_mid"] = float(v[mid])
-        out[f"{k}_all"] = float(np.mean(v))
+    for k in METRICS:
+        out[f"{k}_mid"] = float(per[n // 2 - 1][k])
+        out[f"{k}_all"] = float(np.mean([p[k] for p in per]))
     return out
 
 
-def comparison_sheet(frames, truth, path=None, every=2, title=None):
-    """Figure: ground truth and every method (rows) over time (every ``every``-th frame)."""
+def comparison_sheet(frames, truth=None, path=None, every=2, title=None):
+    """Figure: ground truth and every method (rows) over time.
+
+    Parameters
+    ----------
+    frames : dict method → (n, H, W, C) frames, keys included (:func:`run_methods`).
+    truth : (n, H, W, C) ground truth of every frame; or a dict frame index → (H, W, C)
+        image for the frames that have one (their columns are always shown, the row's other
+        cells stay empty); or None (no ground-truth row).
+    path : PNG file to write (atomically), or None.
+    every : int ≥ 1, show every ``every``-th frame (and the last).
+    title : str or None.
+
+    Returns
+    -------
+    matplotlib Figure.
+    """
     from .plots import over_white
     from ..viz.plots import new_figure
 
-    idx = list(range(0, len(truth), every))
-    if idx[-1] != len(truth) - 1:
-        idx.append(len(truth) - 1)
-    rows = [("ground truth", truth)] + [(m, frames[m]) for m in METHODS]
-    H, W = np.asarray(truth[0]).shape[:2]
+    n = len(frames[METHODS[0]])
+    known = dict(truth) if isinstance(truth, dict) else {}
+    idx = sorted(set(range(0, n, every)) | {n - 1} | set(known))
+    rows = [(m, frames[m]) for m in METHODS]
+    if truth is not None and len(truth):
+        rows.insert(0, ("ground truth", known or truth))
+    H, W = np.asarray(frames[METHODS[0]][0]).shape[:2]
     fig, axes = new_figure(ncols=len(idx), nrows=len(rows), width=1.0, height=1.0 * H / W)
     axes = np.asarray(axes).reshape(len(rows), len(idx))
-    n = len(truth)
     for r, (name, seq) in enumerate(rows):
         for c, i in enumerate(idx):
             ax = axes[r, c]
-            ax.imshow(over_white(seq[i]))
+            if not isinstance(seq, dict) or i in seq:
+                ax.imshow(over_white(seq[i]))
+            else:
+                ax.set_facecolor("0.92")  # no ground truth at this frame
             ax.set_xticks([])
             ax.set_yticks([])
             if c == 0:
@@ -184,6 +249,85 @@ def evaluate_pairs(pairs, n_frames=11, progress=True, interpolator=None, sheets=
     return rows
 
 
+def evaluate_folder(folder, n_frames=None, out=None, progress=False, interpolator=None,
+                    **options):
+    """Every method on one's own keyframe pair, scored wherever ground truth exists.
+
+    The folder is read by :func:`~physlab.inbetween.pair_folder.load_pair_folder`; its
+    layout (:data:`~physlab.inbetween.pair_folder.FOLDER_FORMAT`, also in ``--help``)::
+
+    {folder_format}
+
+    Parameters
+    ----------
+    folder : str or Path of the pair folder.
+    n_frames : int ≥ 3 or None (the folder's rule above).
+    out : folder for ``contact.png`` (:func:`comparison_sheet`: ground truth where given and
+        every method), and with ground truth ``table.md`` and ``rows.json``; None writes
+        nothing.
+    progress : bool, tqdm bars of the pipeline.
+    interpolator : FrameInterpolator (default ``FlowInterpolator()``).
+    options : passed to :func:`~physlab.inbetween.pipeline.inbetween`.
+
+    Returns
+    -------
+    dict with "rows" (one per method and ground-truth frame: pair, t, method, psnr, ssim, cd
+    ×10⁵, seconds), "summary" (``(group, method) → {{metric: value, "n"}}``, groups
+    ``t=<t>`` and, with several ground truths, ``mean``), "table" (:func:`format_table`
+    text, empty without ground truth), "frames", "result" (InbetweenResult), "seconds",
+    "n_frames", "occlusions" (the keys' Occlusion lists or None), "files" (paths written).
+
+    Raises
+    ------
+    FileNotFoundError, NotADirectoryError, ValueError naming the file that is missing or
+    wrong (:func:`~physlab.inbetween.pair_folder.load_pair_folder`).
+    """
+    pair = load_pair_folder(folder)
+    n = pair.n_frames(n_frames)
+    truth = pair.truth_frames(n)
+    frames, res, sec = run_methods(pair.key0, pair.key1, pair.skeleton0, pair.skeleton1, n,
+                                   animation=pair.animation, interpolator=interpolator,
+                                   progress=progress, occlusions0=pair.occlusions[0],
+                                   occlusions1=pair.occlusions[1], **options)
+    t = np.linspace(0.0, 1.0, n)
+    rows, summary = [], {}
+    for m in METHODS:
+        per = []
+        for i, gt in truth.items():
+            scores = frame_scores(frames[m][i], gt)
+            per.append(scores)
+            rows.append({"pair": pair.name, "t": float(t[i]), "method": m, **scores,
+                         "seconds": sec[m]})
+            summary[f"t={t[i]:.3g}", m] = {**scores, "n": 1}
+        if len(per) > 1:
+            summary["mean", m] = {k: float(np.mean([p[k] for p in per])) for k in METRICS}
+            summary["mean", m]["n"] = len(per)
+    summary = {k: summary[k] for k in sorted(summary, key=lambda k: k[0] == "mean")}
+    table = format_table(summary, columns=METRICS) if summary else ""
+    files = []
+    if out is not None:
+        import json
+
+        from .._io import atomic_write_text
+
+        sheet = Path(out) / "contact.png"
+        shown = {0: pair.key0, **truth, n - 1: pair.key1}  # the keys are true at t = 0, 1
+        comparison_sheet(frames, shown, sheet, every=max(1, (n - 1) // 10),
+                         title=f"{pair.name}: keys and ground truth (where given), every method")
+        files.append(sheet)
+        if table:
+            files.append(atomic_write_text(Path(out) / "table.md", table + "\n"))
+            files.append(atomic_write_text(Path(out) / "rows.json", json.dumps(rows, indent=1)))
+    return {"rows": rows, "summary": summary, "table": table, "frames": frames, "result": res,
+            "seconds": sec, "n_frames": n, "occlusions": pair.occlusions, "files": files}
+
+
+# one source for the folder layout: FOLDER_FORMAT, shown in the docstring and in --help
+if evaluate_folder.__doc__:  # None under python -OO
+    evaluate_folder.__doc__ = evaluate_folder.__doc__.format(
+        folder_format=textwrap.indent(FOLDER_FORMAT, "    ").lstrip())
+
+
 def summarize(rows):
     """Mean of every metric per (kind, method): dict ``(kind, method) → {metric: mean}``.
 
@@ -201,9 +345,13 @@ def summarize(rows):
     return out
 
 
-def format_table(summary):
-    """Plain-text table of :func:`summarize` (best value per column and group in *stars*)."""
-    cols = [f"{m}_{w}" for w in ("mid", "all") for m in METRICS]
+def format_table(summary, columns=None):
+    """Plain-text table of :func:`summarize` (best value per column and group in *stars*).
+
+    ``columns`` : keys of the summary values to show, each ``<metric>`` or
+    ``<metric>_<suffix>``; default the mid-frame and all-frame values of every metric."""
+    cols = list(columns) if columns is not None else \
+        [f"{m}_{w}" for w in ("mid", "all") for m in METRICS]
     head = ["group", "method", "n"] + [c.replace("_", " ") for c in cols]
     lines = [" | ".join(head), " | ".join("---" for _ in head)]
     for kind in dict.fromkeys(k for k, _ in summary):
@@ -299,25 +447,44 @@ def animated_drawing_inbetween(name, motion=None, t0=None, t1=None, n_frames=11,
             "seconds": time.perf_counter() - tic}
 
 
+def _pairs_arg(text):
+    """``--pairs``: a count N (the first N procedural pairs) or a pair folder (Path)."""
+    import argparse
+
+    if text.isdigit():
+        if int(text) < 1:
+            raise argparse.ArgumentTypeError(f"N must be >= 1, got {text} (or give a folder)")
+        return int(text)
+    return Path(text)
+
+
 def _parser():
     from physlab._cli import Parser
 
     p = Parser(
         prog="python -m physlab.inbetween.evaluate",
-        description="Ground-truth inbetweening benchmark (procedural cartoon characters): "
-                    "cross-dissolve, flow interpolation, physlab (diagonal blend), physlab "
-                    "(blending optimisation); PSNR, SSIM, Chamfer ×1e5.",
+        description="Ground-truth inbetweening benchmark (procedural cartoon characters), or "
+                    "one's own keyframe pair (--pairs DIR): cross-dissolve, flow "
+                    "interpolation, physlab (diagonal blend), physlab (blending "
+                    "optimisation); PSNR, SSIM, Chamfer ×1e5 wherever ground truth exists.",
         epilog="examples:\n"
                "  %(prog)s --pairs 2 --size 256 --frames 5\n"
                "  %(prog)s --out runs/inbetween_eval\n"
-               "  %(prog)s --real --skip-benchmark --out runs/real    # needs ../shared/data")
-    p.add_argument("--size", type=int, default=512, help="image size in px (default 512)")
-    p.add_argument("--frames", type=int, default=11,
-                   help="frames per pair including both keys (default 11 = 9 in-betweens)")
-    p.add_argument("--pairs", type=int, default=None, help="evaluate only the first N pairs")
+               "  %(prog)s --real --skip-benchmark --out runs/real    # needs ../shared/data\n"
+               "  %(prog)s --pairs my_pair/ --out runs/my_pair          # one's own triplet\n"
+               "\na --pairs DIR folder:\n" + FOLDER_FORMAT.replace("%", "%%"))
+    p.add_argument("--size", type=int, default=None,
+                   help="image size of the procedural pairs in px (default 512)")
+    p.add_argument("--frames", type=int, default=None,
+                   help="frames per pair including both keys (default 11 = 9 in-betweens; "
+                        "for --pairs DIR the folder's rule below)")
+    p.add_argument("--pairs", type=_pairs_arg, default=None, metavar="N|DIR",
+                   help="N: evaluate only the first N procedural pairs; DIR: evaluate the "
+                        "keyframe pair in folder DIR instead of the benchmark (layout below; "
+                        "write ./2 for a folder named 2)")
     p.add_argument("--out", type=Path, default=None,
-                   help="folder for the table (table.md), per-pair rows (rows.json) and "
-                        "contact sheets (PNG)")
+                   help="folder for the table (table.md), rows (rows.json) and contact sheets "
+                        "(PNG); with --pairs DIR default DIR/evaluation")
     p.add_argument("--no-progress", action="store_true", help="no progress bars")
     p.add_argument("--real", action="store_true",
                    help="also inbetween the six AnimatedDrawings characters posed by BVH "
@@ -327,8 +494,39 @@ def _parser():
     return p
 
 
+def _main_folder(args):
+    """``--pairs DIR``: evaluate one's own pair, print the table, write the contact sheet."""
+    if args.size is not None:
+        raise ValueError(f"--size {args.size} sets the procedural pairs' size; a --pairs "
+                         f"folder ({args.pairs}) has its keys' size: drop --size")
+    out = args.pairs / "evaluation" if args.out is None else args.out
+    r = evaluate_folder(args.pairs, n_frames=args.frames, out=out,
+                        progress=not args.no_progress)
+    res, n = r["result"], r["n_frames"]
+    print(f"{args.pairs}: {n} frames (keys included), {res.frames.shape[2]}x"
+          f"{res.frames.shape[1]} px")
+    if r["table"]:
+        print(r["table"])
+        print("\nCD = Chamfer distance between dark pixels ×1e5.")
+    else:
+        print("no ground truth (gt_<t>.png) in the folder: no metrics; compare the methods "
+              "on the contact sheet")
+    occ = r["occlusions"]
+    if any(o is not None for o in occ):
+        print("occlusion regions: " + ", ".join(f"key{k} {0 if o is None else len(o)}"
+                                                for k, o in enumerate(occ))
+              + " (layered templates)")
+    print(f"physlab: {r['seconds']['physlab']:.1f} s, largest handle error "
+          f"{res.handle_error.max():.2f} px, {int(res.flipped.sum())} flipped triangles")
+    flagged = {i: f for i, f in enumerate(res.flags) if f}
+    if flagged:
+        print("quality flags: " + "; ".join(f"frame {i}: {', '.join(f)}"
+                                            for i, f in flagged.items()))
+    print("wrote " + ", ".join(str(f) for f in r["files"]))
+
+
 def main(argv=None):
-    """Command-line entry point; prints the table and returns 0 if physlab wins on far pairs."""
+    """Command-line entry point; prints the table(s) and returns 0."""
     args = _parser().parse_args(argv)
     import json
 
@@ -336,13 +534,16 @@ def main(argv=None):
 
     if args.out is not None:
         args.out.mkdir(parents=True, exist_ok=True)
-    if not args.skip_benchmark:
+    n_frames = DEFAULT_FRAMES if args.frames is None else args.frames
+    if isinstance(args.pairs, Path):
+        _main_folder(args)
+    elif not args.skip_benchmark:
         from .characters import inbetween_benchmark
 
-        pairs = inbetween_benchmark(size=args.size)
+        pairs = inbetween_benchmark(size=512 if args.size is None else args.size)
         if args.pairs is not None:
             pairs = pairs[:args.pairs]
-        rows = evaluate_pairs(pairs, n_frames=args.frames, progress=not args.no_progress,
+        rows = evaluate_pairs(pairs, n_frames=n_frames, progress=not args.no_progress,
                               sheets=None if args.out is None else args.out / "pairs")
         table = format_table(summarize(rows))
         print(table)
@@ -360,7 +561,7 @@ def main(argv=None):
         print(f"\nReal drawings ({ANIMATED_DRAWINGS_ATTRIBUTION}):")
         print("character | motion | BVH frames | flipped triangles | max handle error (px) | s")
         for name in ANIMATED_DRAWINGS:
-            r = animated_drawing_inbetween(name, n_frames=args.frames,
+            r = animated_drawing_inbetween(name, n_frames=n_frames,
                                            progress=not args.no_progress)
             fr = r["frames"]
             print(f"{name} | {r['motion']} | {fr[0]:.0f}–{fr[-1]:.0f} | {r['flipped']} | "

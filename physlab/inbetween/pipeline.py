@@ -15,22 +15,26 @@ Brodt & Bessmeltsev 2024, Secs. 4–5, for drawings without occlusions:
 from __future__ import annotations
 
 import time
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from .blend import (alpha_grid, blend_costs, blending_path, diagonal_path, image_matrix,
                     interpolation_quality, render_path, row_flows)
-from .deform import MAX_ITER, MU, TOL, SymmetricDirichletDeformer, flipped_count
+from .deform import (MAX_HANDLE_STEP, MAX_ITER, MU, TOL, SymmetricDirichletDeformer,
+                     deform_through, flipped_count, substeps)
 from .frame_interpolation import FlowInterpolator
+from .occlusion import build_layered_template, limb_overlaps
 from .skeleton import Skeleton, check_compatible, interpolate
 from .template import Template, as_rgba_float, build_template
 
-__all__ = ["inbetween", "InbetweenResult", "deform_sequence", "DEFORMERS", "BLENDS"]
+__all__ = ["inbetween", "InbetweenResult", "deform_sequence", "substeps", "DEFORMERS", "BLENDS"]
 
 DEFORMERS = ("symmetric_dirichlet", "arap", "lbs")
 DISTORTION_CAP = 100.0  #: texture distortion assigned to frames with folded triangles
 BLENDS = ("optimal", "diagonal")
+HANDLE_FLAG_PX = 2.0  #: frames whose largest handle error exceeds this (px) are flagged
 
 
 @dataclass
@@ -55,6 +59,10 @@ class InbetweenResult:
     costs : BlendCosts.
     matrix : ImageMatrix or None (``keep_matrix=True``).
     timings : dict stage → seconds.
+    flags : list of n tuples of str, per-frame quality flags: ``"overlap:a/b"`` (bones into
+        joints a and b overlap in 2D and no occlusion information covers them),
+        ``"handle_error"`` (a handle ended more than 2 px from its target), ``"flipped"``
+        (folded triangles). Empty tuples for clean frames.
     """
 
     frames: np.ndarray
@@ -77,6 +85,7 @@ class InbetweenResult:
     costs: object
     matrix: object = None
     timings: dict = field(default_factory=dict)
+    flags: list = field(default_factory=list)
 
     def __repr__(self):
         n, H, W, C = self.frames.shape
@@ -91,20 +100,6 @@ def _progress(it, progress, desc):
     from tqdm.auto import tqdm
 
     return tqdm(it, desc=desc, leave=False)
-
-
-#: largest handle move (px) between two solves of a sequence; bigger frame-to-frame moves are
-#: split into sub-steps along the skeletal interpolation (continuation)
-MAX_HANDLE_STEP = 16.0
-
-
-def substeps(prev, skel, max_step):
-    """Skeletons from ``prev`` (exclusive) to ``skel`` (inclusive) with no handle moving more
-    than ``max_step`` px from one to the next (:func:`interpolate`): the continuation path
-    of :func:`deform_sequence`, each solve warm-started from the previous one."""
-    move = np.linalg.norm(skel.handles() - prev.handles(), axis=1).max()
-    k = max(1, int(np.ceil(move / max_step)))
-    return interpolate(prev, skel, np.arange(1, k + 1) / k) if k > 1 else [skel]
 
 
 def deform_sequence(template, skeletons, deformer="symmetric_dirichlet", order=None,
@@ -147,8 +142,8 @@ def deform_sequence(template, skeletons, deformer="symmetric_dirichlet", order=N
                      method=options.get("method", "lbfgs"))
         x, prev = None, template.skeleton
         for i in _progress(order, progress, "deform"):
-            for s in substeps(prev, skeletons[i], max_handle_step):
-                x = D.solve(s.handles(), x0=x, **solve).x
+            x = deform_through(D, [skeletons[i]], x0=x, start=prev,
+                               max_handle_step=max_handle_step, **solve).x
             xs[i], prev = x, skeletons[i]
     else:
         from .skinning import bbw_weights, skeleton_deform
@@ -180,7 +175,8 @@ def inbetween(key0, key1, skeleton0, skeleton1, n_frames, animation=None, *, mas
               mu=MU, tol=TOL, max_iter=MAX_ITER, solver="lbfgs", interpolator=None,
               blend="optimal",
               speedup=3, texture_model="variance", lambda_Q=0.1, lambda_dist=1.0,
-              lambda_mid=0.0, prior=0.01, keep_matrix=False, progress=False):
+              lambda_mid=0.0, prior=0.01, keep_matrix=False, progress=False,
+              occlusions0=None, occlusions1=None, strict=False):
     """In-between frames of two keyframe drawings driven by a skeletal animation.
 
     Brodt & Bessmeltsev 2024 (no-occlusion case; module docstring for the stages).
@@ -209,6 +205,15 @@ def inbetween(key0, key1, skeleton0, skeleton1, n_frames, animation=None, *, mas
     keep_matrix : bool, also compute the whole image matrix (n·n_α frames; lessons, small
         images only).
     progress : bool, tqdm bars.
+    occlusions0, occlusions1 : None, or lists of :class:`~physlab.inbetween.occlusion.Occlusion`
+        of each key (an empty list: the key has none). When either is given, both templates
+        are :func:`~physlab.inbetween.occlusion.build_layered_template` s (Secs. 4.1–4.4,
+        5.1): occlusion layers whose topology is chosen by deforming towards the other key,
+        triangles drawn back to front by the skeleton's joint depths, back layers textured
+        from the other key or inpainted.
+    strict : bool. Without occlusion information, a skeletal motion that makes non-adjacent
+        bones overlap in 2D (:func:`~physlab.inbetween.occlusion.limb_overlaps`) warns naming
+        the joints (a single sheet tears there); ``strict=True`` raises instead.
 
     Returns
     -------
@@ -252,11 +257,38 @@ def inbetween(key0, key1, skeleton0, skeleton1, n_frames, animation=None, *, mas
                 raise TypeError(f"animation[{i}] is not a Skeleton")
             check_compatible(skeleton0, s, ("skeleton0", f"animation[{i}]"))
     opaque = bool(k0[..., 3].min() == 1.0 and k1[..., 3].min() == 1.0)
+    layered = occlusions0 is not None or occlusions1 is not None
+    overlaps = [() if layered else tuple(f"overlap:{a}/{b}" for a, b in limb_overlaps(s))
+                for s in skeletons]
+    if any(overlaps):
+        bad = sorted({f for fl in overlaps for f in fl})
+        frames_hit = [i for i, fl in enumerate(overlaps) if fl]
+        msg = (f"the skeletal motion makes limbs overlap ({', '.join(b[8:] for b in bad)} in "
+               f"frames {frames_hit}) but no occlusion information was given: a single-layer "
+               "template tears there. Pass occlusions0/occlusions1 (physlab.inbetween."
+               "suggest_occlusions or character_occlusions give a start) and joint depths")
+        if strict:
+            raise ValueError(msg)
+        warnings.warn(msg, stacklevel=2)
 
-    tpl0 = build_template(k0, skeleton0, mask=mask0, mask_predictor=mask_predictor,
-                          max_area=max_area, name="key0")
-    tpl1 = build_template(k1, skeleton1, mask=mask1, mask_predictor=mask_predictor,
-                          max_area=max_area, name="key1")
+    if layered:
+        def towards(seq):  # poses the template is scored on (Sec. 4.3): ≤ 4, the far key last
+            idx = np.unique(np.linspace(1, len(seq) - 1, min(4, len(seq) - 1)).round().astype(int))
+            return [seq[i] for i in idx]
+
+        tpl0 = build_layered_template(
+            k0, skeleton0, occlusions0 or (), mask=mask0, mask_predictor=mask_predictor,
+            max_area=max_area, target_skeletons=towards(skeletons), other_image=k1,
+            other_occlusions=occlusions1 or (), other_mask=mask1, mu=mu, name="key0")
+        tpl1 = build_layered_template(
+            k1, skeleton1, occlusions1 or (), mask=mask1, mask_predictor=mask_predictor,
+            max_area=max_area, target_skeletons=towards(skeletons[::-1]), other_image=k0,
+            other_occlusions=occlusions0 or (), other_mask=mask0, mu=mu, name="key1")
+    else:
+        tpl0 = build_template(k0, skeleton0, mask=mask0, mask_predictor=mask_predictor,
+                              max_area=max_area, name="key0")
+        tpl1 = build_template(k1, skeleton1, mask=mask1, mask_predictor=mask_predictor,
+                              max_area=max_area, name="key1")
     timings["template"] = time.perf_counter() - tic
 
     tic = time.perf_counter()
@@ -268,8 +300,14 @@ def inbetween(key0, key1, skeleton0, skeleton1, n_frames, animation=None, *, mas
 
     tic = time.perf_counter()
     H, W = k0.shape[:2]
-    fwd = np.stack([tpl0.render(x, (H, W)) for x in _progress(x0s, progress, "render I→")])
-    bwd = np.stack([tpl1.render(x, (H, W)) for x in _progress(x1s, progress, "render I←")])
+    if layered:  # triangles back to front at each frame's joint depths
+        fwd = np.stack([tpl0.render(x, (H, W), skeleton=s)
+                        for x, s in _progress(list(zip(x0s, skeletons)), progress, "render I→")])
+        bwd = np.stack([tpl1.render(x, (H, W), skeleton=s)
+                        for x, s in _progress(list(zip(x1s, skeletons)), progress, "render I←")])
+    else:
+        fwd = np.stack([tpl0.render(x, (H, W)) for x in _progress(x0s, progress, "render I→")])
+        bwd = np.stack([tpl1.render(x, (H, W)) for x in _progress(x1s, progress, "render I←")])
     timings["render"] = time.perf_counter() - tic
 
     tic = time.perf_counter()
@@ -306,8 +344,17 @@ def inbetween(key0, key1, skeleton0, skeleton1, n_frames, animation=None, *, mas
         a = frames[..., 3:4]
         frames = (frames[..., :3] * a + paper * (1.0 - a)).astype(np.float32)
     timings["blend"] = time.perf_counter() - tic
+    flags = []
+    for i in range(n):
+        f = list(overlaps[i])
+        if max(err0[i], err1[i]) > HANDLE_FLAG_PX:
+            f.append("handle_error")
+        if flip0[i] or flip1[i]:
+            f.append("flipped")
+        flags.append(tuple(f))
     return InbetweenResult(
         frames=frames, t=t, skeletons=skeletons, templates=(tpl0, tpl1), x_fwd=x0s, x_bwd=x1s,
         fwd=fwd, bwd=bwd, distortion_fwd=dist0, distortion_bwd=dist1,
         handle_error=np.stack([err0, err1]), flipped=np.stack([flip0, flip1]), alphas=alphas,
-        eps=eps, Q=Q, path=path, diagonal=diagonal, costs=costs, matrix=matrix, timings=timings)
+        eps=eps, Q=Q, path=path, diagonal=diagonal, costs=costs, matrix=matrix, timings=timings,
+        flags=flags)

@@ -41,16 +41,21 @@ class Skeleton:
     names : sequence of J unique str, joint names.
     parents : (J,) int, parent index of each joint, -1 for the single root.
     xy : (J, 2) float, joint positions ``(x, y)`` in pixels, y down.
+    depth : None or (J,) float, each joint's depth (smaller = nearer the viewer; any unit,
+        only the order matters under orthographic projection, Sec. 3). Occlusion layers use
+        it to decide which layer is in front (Sec. 5.1); skeletons without occlusions need
+        none.
 
     Raises
     ------
     ValueError for mismatched lengths, duplicate names, not exactly one root, parents out of
-    range or forming a cycle, NaN/inf positions.
+    range or forming a cycle, NaN/inf positions or depths.
     """
 
     names: tuple
     parents: np.ndarray
     xy: np.ndarray
+    depth: np.ndarray = None
 
     def __post_init__(self):
         names = tuple(str(n) for n in self.names)
@@ -69,6 +74,16 @@ class Skeleton:
             raise ValueError(f"xy must have shape ({J}, 2), got {xy.shape}")
         if not np.all(np.isfinite(xy)):
             raise ValueError("skeleton joint positions contain NaN or inf")
+        depth = self.depth
+        if depth is not None:
+            depth = np.asarray(depth, dtype=np.float64)
+            if depth.shape != (J,):
+                raise ValueError(f"depth must have shape ({J},) (one per joint) or be None, "
+                                 f"got {depth.shape}")
+            if not np.all(np.isfinite(depth)):
+                bad = [names[j] for j in np.flatnonzero(~np.isfinite(depth))]
+                raise ValueError(f"depth of joint(s) {bad} is NaN or inf")
+            depth.setflags(write=False)
         parents = parents.astype(np.int64)
         roots = np.flatnonzero(parents < 0)
         if len(roots) != 1 or parents[roots[0]] != -1:
@@ -80,6 +95,7 @@ class Skeleton:
         object.__setattr__(self, "names", names)
         object.__setattr__(self, "parents", parents)
         object.__setattr__(self, "xy", xy)
+        object.__setattr__(self, "depth", depth)
         object.__setattr__(self, "_order", order)
         xy.setflags(write=False)
         parents.setflags(write=False)
@@ -164,8 +180,22 @@ class Skeleton:
 
     # ------------------------------------------------------------------ constructors
     def with_xy(self, xy):
-        """The same topology with new joint positions ``xy`` (J, 2)."""
-        return Skeleton(self.names, self.parents, xy)
+        """The same topology (and depths) with new joint positions ``xy`` (J, 2)."""
+        return Skeleton(self.names, self.parents, xy, self.depth)
+
+    def with_depth(self, depth):
+        """The same joints with per-joint ``depth`` (J,) (or a dict name → depth, other
+        joints getting the mean of the given ones; None removes the depths)."""
+        if isinstance(depth, dict):
+            unknown = sorted(set(depth) - set(self.names))
+            if unknown:
+                raise ValueError(f"depth names unknown joint(s) {unknown}; joints are "
+                                 f"{list(self.names)}")
+            if not depth:
+                raise ValueError("depth dict is empty; give at least one joint's depth")
+            fill = float(np.mean([float(v) for v in depth.values()]))
+            depth = [float(depth.get(n, fill)) for n in self.names]
+        return Skeleton(self.names, self.parents, self.xy, depth)
 
     @classmethod
     def from_local(cls, names, parents, root_xy, local_angles, lengths):
@@ -222,8 +252,11 @@ class Skeleton:
 
     def to_dict(self):
         """JSON-friendly dict (inverse of ``Skeleton(**d)``)."""
-        return {"names": list(self.names), "parents": self.parents.tolist(),
-                "xy": self.xy.tolist()}
+        d = {"names": list(self.names), "parents": self.parents.tolist(),
+             "xy": self.xy.tolist()}
+        if self.depth is not None:
+            d["depth"] = self.depth.tolist()
+        return d
 
     def same_topology(self, other):
         """Whether ``other`` has the same joint names and parents."""
@@ -251,7 +284,8 @@ def interpolate(sk0, sk1, t):
     Local bone angles (relative to the parent bone) follow the shortest arc from ``sk0`` to
     ``sk1``, bone lengths and the root position are blended linearly, and joints are rebuilt
     by forward kinematics (:meth:`Skeleton.from_local`). ``t = 0`` and ``t = 1`` return the
-    keys exactly (up to rounding).
+    keys exactly (up to rounding). Joint depths, when a key has them, are blended linearly
+    (a key without depths takes the other's).
 
     Parameters
     ----------
@@ -270,6 +304,8 @@ def interpolate(sk0, sk1, t):
     da = _wrap(a1 - a0)
     L0, L1 = sk0.bone_lengths(), sk1.bone_lengths()
     r0, r1 = sk0.xy[sk0.root], sk1.xy[sk1.root]
+    d0 = sk0.depth if sk0.depth is not None else sk1.depth
+    d1 = sk1.depth if sk1.depth is not None else d0
     out = []
     for s in ts:
         if s == 0.0:
@@ -277,6 +313,7 @@ def interpolate(sk0, sk1, t):
         elif s == 1.0:
             out.append(sk1)
         else:
-            out.append(Skeleton.from_local(sk0.names, sk0.parents, (1 - s) * r0 + s * r1,
-                                           a0 + s * da, (1 - s) * L0 + s * L1))
+            sk = Skeleton.from_local(sk0.names, sk0.parents, (1 - s) * r0 + s * r1,
+                                     a0 + s * da, (1 - s) * L0 + s * L1)
+            out.append(sk if d0 is None else sk.with_depth((1 - s) * d0 + s * d1))
     return out[0] if np.ndim(t) == 0 else out

@@ -163,6 +163,35 @@ def _unique_points(P, tol):
     return np.flatnonzero(keep)
 
 
+def keyframe_mask(image, skeleton, mask=None, mask_predictor=None, grow=3, name="keyframe"):
+    """Checked inputs of a template: ``(rgba image, mask, mask grown by grow px)``.
+
+    The image as (H, W, 4) float RGBA, the skeleton's joints inside it, the foreground mask
+    given or predicted (``mask_predictor``, default :func:`classical_foreground_mask`), of the
+    image's size and not empty. Raises ValueError / TypeError naming ``name``'s problem.
+    """
+    from scipy import ndimage
+
+    img = as_rgba_float(image, name)
+    if not isinstance(skeleton, Skeleton):
+        raise TypeError(f"skeleton must be a physlab.inbetween.Skeleton, got "
+                        f"{type(skeleton).__name__}")
+    H, W = img.shape[:2]
+    _check_joints_in_image(skeleton, (H, W), name)
+    if mask is None:
+        mask = (mask_predictor or classical_foreground_mask)(img)
+    mask = mask_from_array(mask)
+    if mask.shape != (H, W):
+        raise ValueError(f"{name}: mask shape {mask.shape} differs from the image's {(H, W)}")
+    if not mask.any():
+        raise ValueError(f"{name}: the foreground mask is empty — nothing to mesh (is the "
+                         "drawing on a light background, or does its alpha channel mark it?)")
+    if grow < 0:
+        raise ValueError(f"grow must be >= 0 px, got {grow}")
+    grown = ndimage.binary_dilation(mask, iterations=int(grow)) if grow else mask
+    return img, mask, grown
+
+
 def build_template(image, skeleton, mask=None, mask_predictor=None, max_area=None,
                    epsilon=2.0, min_angle=20.0, grow=3, name="keyframe"):
     """Template of a keyframe drawing: mask → outline → Triangle mesh with handle vertices.
@@ -193,23 +222,8 @@ def build_template(image, skeleton, mask=None, mask_predictor=None, max_area=Non
     """
     from scipy import ndimage
 
-    img = as_rgba_float(image, name)
-    if not isinstance(skeleton, Skeleton):
-        raise TypeError(f"skeleton must be a physlab.inbetween.Skeleton, got "
-                        f"{type(skeleton).__name__}")
+    img, mask, grown = keyframe_mask(image, skeleton, mask, mask_predictor, grow, name)
     H, W = img.shape[:2]
-    _check_joints_in_image(skeleton, (H, W), name)
-    if mask is None:
-        mask = (mask_predictor or classical_foreground_mask)(img)
-    mask = mask_from_array(mask)
-    if mask.shape != (H, W):
-        raise ValueError(f"{name}: mask shape {mask.shape} differs from the image's {(H, W)}")
-    if not mask.any():
-        raise ValueError(f"{name}: the foreground mask is empty — nothing to mesh (is the "
-                         "drawing on a light background, or does its alpha channel mark it?)")
-    if grow < 0:
-        raise ValueError(f"grow must be >= 0 px, got {grow}")
-    grown = ndimage.binary_dilation(mask, iterations=int(grow)) if grow else mask
     handles = skeleton.handles()
     # insert distinct handles lying well inside the foreground as vertices
     inside = np.zeros(len(handles), bool)

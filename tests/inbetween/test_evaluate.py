@@ -1,6 +1,7 @@
 """Ground-truth evaluation and the real-drawing check (physlab.inbetween.evaluate)."""
 import json
 
+import imageio.v3 as iio
 import numpy as np
 import pytest
 
@@ -60,3 +61,115 @@ def test_real_animated_drawing_no_flips(real_data):
     assert res.frames.shape[0] == 5 and res.frames.shape[-1] == 4
     # the keys are the drawing posed at the two BVH frames, and the poses differ
     assert np.abs(r["skeletons"][0].xy - r["skeletons"][-1].xy).max() > 20
+
+
+# ----------------------------------------------------------------------------- opaque keys
+@pytest.fixture(scope="module")
+def far_pair():
+    pairs = inbetween_benchmark(size=96)
+    return next(p for p in pairs if p.kind == "far")
+
+
+def test_run_methods_on_opaque_rgb_keys(far_pair):
+    """Regression: RGB keys crashed with "could not broadcast (H,W,3) into (H,W,4)"; now every
+    method returns 3-channel frames over the same paper, keys exact at both ends."""
+    from physlab.image import over_white, to_uint8
+
+    key0, key1 = (to_uint8(over_white(k)) for k in far_pair.keyframes())  # RGB on white
+    frames, res, sec = evaluate.run_methods(key0, key1, far_pair.skeleton0, far_pair.skeleton1,
+                                            5, animation=far_pair.animation(5))
+    assert set(frames) == set(evaluate.METHODS) == set(sec)
+    for m, f in frames.items():
+        assert f.shape == (5, 96, 96, 3) and f.dtype == np.float32, m
+        np.testing.assert_allclose(f[0], key0 / 255, atol=1e-6)
+        np.testing.assert_allclose(f[-1], key1 / 255, atol=1e-6)
+    # cross-dissolve of opaque keys: the mean of the keys at t = 0.5 (analytic)
+    np.testing.assert_allclose(frames["cross_dissolve"][2], (key0 / 255 + key1 / 255) / 2,
+                               atol=1e-5)
+    truth = np.stack([to_uint8(over_white(g)) for g in far_pair.ground_truth(np.linspace(0, 1, 5))])
+    scores = {m: evaluate.score_frames(frames[m], truth) for m in evaluate.METHODS}
+    assert all(np.isfinite(v) for s in scores.values() for v in s.values())
+    assert scores["physlab"]["psnr_mid"] > scores["cross_dissolve"]["psnr_mid"] + 3
+    # an opaque RGBA key (alpha 255 everywhere) gives the same frames as its RGB
+    rgba = [np.dstack([k, np.full(k.shape[:2], 255, np.uint8)]) for k in (key0, key1)]
+    again, _, _ = evaluate.run_methods(*rgba, far_pair.skeleton0, far_pair.skeleton1, 5,
+                                       animation=far_pair.animation(5))
+    for m in evaluate.METHODS:
+        np.testing.assert_array_equal(again[m], frames[m])
+
+
+# ----------------------------------------------------------------------------- one's own pair
+def test_evaluate_folder_end_to_end(tmp_path, capsys):
+    """`--pairs DIR` on RGB keys on white with two ground truths: the table of every method
+    at t = 0.25, 0.5 and their mean, the contact sheet, rows.json."""
+    from _drawings import write_pair
+
+    write_pair(tmp_path / "mine", gt=(0.25, 0.5), opaque=True)
+    out = tmp_path / "out"
+    assert evaluate.main(["--pairs", str(tmp_path / "mine"), "--frames", "5", "--no-progress",
+                          "--out", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "5 frames (keys included), 96x96 px" in text
+    for group in ("t=0.25", "t=0.5", "mean"):
+        assert all(f"{group} | {m} |" in text for m in evaluate.METHODS), text
+    rows = json.loads((out / "rows.json").read_text())
+    assert len(rows) == 2 * len(evaluate.METHODS) and {r["t"] for r in rows} == {0.25, 0.5}
+    score = {(r["t"], r["method"]): r for r in rows}
+    assert score[0.5, "physlab"]["psnr"] > score[0.5, "cross_dissolve"]["psnr"] + 3
+    assert score[0.5, "physlab"]["cd"] < score[0.5, "cross_dissolve"]["cd"]
+    assert (out / "table.md").read_text().startswith("group | method | n | psnr | ssim | cd")
+    sheet = iio.imread(out / "contact.png")
+    assert sheet.shape[0] > 300 and sheet.shape[1] > 300  # 5 rows x 5 columns of panels
+
+
+def test_evaluate_folder_without_ground_truth_writes_the_sheet(tmp_path):
+    from _drawings import write_pair
+
+    write_pair(tmp_path / "p", gt=(), animation=4)
+    r = evaluate.evaluate_folder(tmp_path / "p", out=tmp_path / "o")
+    assert r["n_frames"] == 4 and r["table"] == "" and r["rows"] == []
+    assert [f.name for f in r["files"]] == ["contact.png"]
+    assert all(f.shape == (4, 96, 96, 4) for f in r["frames"].values())  # RGBA keys: RGBA
+
+
+def test_evaluate_folder_passes_occlusions_to_the_pipeline(tmp_path, capsys):
+    """A pair whose forearm folds across the body, with the keys' true occlusion regions in
+    occlusions<k>.json: the pipeline builds layered templates and flags no overlap."""
+    from _drawings import write_pair
+
+    from physlab.inbetween import LayeredTemplate, occlusion_benchmark
+
+    pair = occlusion_benchmark(96)[0]
+    write_pair(tmp_path / "occ", pair=pair, occlusions=True)
+    assert evaluate.main(["--pairs", str(tmp_path / "occ"), "--frames", "5", "--no-progress"]) == 0
+    text = capsys.readouterr().out
+    n0, n1 = (len(o) for o in pair.occlusions())
+    assert f"occlusion regions: key0 {n0}, key1 {n1} (layered templates)" in text
+    assert "t=0.5 | physlab |" in text and "overlap" not in text
+    assert (tmp_path / "occ" / "evaluation" / "contact.png").is_file()  # default --out
+    r = evaluate.evaluate_folder(tmp_path / "occ", n_frames=3)
+    assert all(isinstance(t, LayeredTemplate) for t in r["result"].templates)
+    assert not any(r["result"].flags)
+
+
+@pytest.mark.parametrize("spoil, match", [
+    (lambda d: (d / "key0.png").unlink(), r"missing key0\.png"),
+    (lambda d: (d / "skeleton1.json").write_text('{"names": [], "xy": []}'),
+     r"skeleton1\.json: missing field\(s\) \['parents'\]"),
+    (lambda d: iio.imwrite(d / "gt_0.5.png", np.zeros((50, 96, 3), np.uint8)),
+     r"gt_0\.5\.png is 96x50 px but the keys are 96x96"),
+], ids=["no key0", "skeleton fields", "gt size"])
+def test_physlab_evaluate_pairs_bad_folder_is_one_line(tmp_path, capsys, spoil, match):
+    import re
+
+    from _drawings import write_pair
+
+    from physlab import cli
+
+    write_pair(tmp_path / "p", gt=(0.5,))
+    spoil(tmp_path / "p")
+    status = cli.main(["evaluate", "inbetween", "--pairs", str(tmp_path / "p"), "--no-progress"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert status == 2 and len(err) == 1 and err[0].startswith("physlab: error: "), err
+    assert re.search(match, err[0]), err[0]
+    assert not (tmp_path / "p" / "evaluation").exists()

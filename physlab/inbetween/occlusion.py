@@ -1,0 +1,1032 @@
+"""Occlusion-aware layered templates (Brodt & Bessmeltsev 2024, Secs. 3, 4.1–4.4, 5.1).
+
+A drawing whose limb crosses the body cannot be deformed as one sheet: under the skeletal
+motion the deformation field is only piecewise smooth (Fig. 2d), and a single-layer template
+tears. The paper lifts the drawing onto a *multi-sheet* domain (Fig. 5): inside every
+occlusion region the template has two layers, sewn to the rest of the drawing along parts of
+the region's outline, and the skeletal deformation of that domain is smooth again.
+
+Inputs per keyframe (Sec. 4)
+----------------------------
+* :class:`Occlusion` — one occlusion region: a mask (or polygon) and its **T-junctions**,
+  the points where one part's outline ends against the occluder's. The paper predicts masks
+  with a DINOv2 U-Net (weights unavailable here); :func:`suggest_occlusions` is the honest
+  CPU substitute — the 2D overlap of non-adjacent limbs' capsules, a suggestion the user
+  accepts or edits (``predictor=`` is the seam for a learned one).
+* Joint depths near the regions (:attr:`Skeleton.depth`, smaller = nearer): they decide
+  which layer is in front after the topology is found (Sec. 5.1).
+
+Building the template (:func:`build_layered_template`)
+------------------------------------------------------
+1. **Mask refinement** (Sec. 4.1): each region's outline (Douglas–Peucker, ε = 2 px) is
+   deformed so that it passes through its T-junctions — the triangulated region is deformed
+   with the symmetric Dirichlet energy (Eq. 2's ``E_d``) pulling the outline vertex nearest
+   each T-junction onto it and fixing outline vertices far from every T-junction
+   (:func:`refine_through_t_junctions`).
+2. **Base mesh** (Sec. 4.2): a conforming Delaunay triangulation of the foreground with the
+   region outlines as constrained edges (Triangle, minimum angle 20°), so every triangle is
+   inside or outside each region; handles (joints and bone midpoints) are vertices.
+3. **Pockets** (Sec. 4.2): every region's triangles are duplicated as a second layer sewn to
+   the base mesh along the whole outline. Handles inside a region go to one layer: nearer
+   handles (by joint depth) to layer A, farther ones to layer B (the paper inserts them into
+   an "arbitrary" layer; with limbs of both depths inside one region an arbitrary choice can
+   put both into one layer, which no cut can fix).
+4. **Switching rule and topology** (Secs. 4.3–4.4, Eq. 2, Algorithm 1): every outline edge
+   ``i`` gets ``b_i`` — which layer (A: 0, B: 1) stays attached to the outside there; the
+   other layer is *incised* along it (vertex re-indexing, :func:`incise`). ``b`` may switch
+   only at T-junctions (where it must) and at most at one *cusp* elsewhere, so a region with
+   ``k`` T-junctions and ``n`` edges has 2 (even ``k``) or ``2(n − k)`` (odd ``k``) valid
+   assignments (:func:`valid_assignments`). Each is scored by deforming the template into the
+   target pose (``E_d + E_pose``, Eq. 1) and the cheapest kept, region by region. For odd
+   ``k`` the paper searches the cusp with optuna's TPE; physlab scans every ``s``-th cusp
+   position then refines around the best (a deterministic coarse-to-fine substitute, no extra
+   dependency). **Non-manifold edges** (Sec. 4.3): near multi-valence joints (chest, pelvis)
+   the outline edge closest to the joint that a bone crosses keeps both layers attached.
+5. **Depth of layers** (Sec. 5.1): bounded biharmonic weights of the handles on the layered
+   (non-manifold) mesh (libigl ``bbw``) times the handles' depths give every vertex a depth;
+   the layer with the smaller mean depth in a region is its front layer. Triangles are drawn
+   back to front by this depth in every frame (painter's algorithm), so a limb that moves over
+   the body is drawn over it.
+6. **Texturing** (Sec. 5.1): the base mesh and each front layer take the keyframe; a back
+   layer takes the *other* keyframe where, deformed into that pose, its triangle lands fully on
+   the other key's foreground and outside its occlusion regions, and is inpainted elsewhere
+   (OpenCV Telea as the stand-in for LaMa; ``inpainter=`` is the seam). The inpainted
+   fraction is the texture quality of the layer (:attr:`LayeredTemplate.inpainted_fraction`).
+"""
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from scipy import sparse
+
+from .template import Template, as_rgba_float, classical_foreground_mask
+
+__all__ = ["Occlusion", "OcclusionRegion", "LayeredTemplate", "valid_assignments",
+           "count_valid_assignments", "refine_through_t_junctions", "switch_points", "incise",
+           "build_layered_template", "suggest_occlusions", "save_occlusions", "load_occlusions",
+           "limb_overlaps"]
+
+#: A T-junction may lie at most this far (px) from its region's outline.
+T_JUNCTION_TOLERANCE = 6.0
+#: Outline vertices farther than this (px) from every T-junction stay fixed while the outline
+#: is pulled through the T-junctions (Sec. 4.1).
+REFINE_RADIUS = 24.0
+#: Candidate cusp positions scanned before refinement (odd ``k``).
+CUSP_SCAN = 8
+#: Gaps enclosed by the foreground at least this big (px²) are holes of the mesh.
+MIN_HOLE_AREA = 16
+#: About how many triangles each occlusion region is meshed with.
+REGION_TRIANGLES = 60
+
+
+# ------------------------------------------------------------------------------- Occlusion
+@dataclass(frozen=True, eq=False)
+class Occlusion:
+    """One occlusion region of a keyframe (Brodt & Bessmeltsev Sec. 4).
+
+    Parameters
+    ----------
+    mask : (H, W) bool array, or a polygon (k, 2) of pixel points ``(x, y)``.
+    t_junctions : (m, 2) pixel points on the region's outline where one outline ends against
+        another (Fig. 7); may be empty.
+    label : str, free text (e.g. which parts overlap).
+
+    Raises
+    ------
+    ValueError for an empty mask, a polygon with fewer than 3 points, NaN points.
+    """
+
+    mask: np.ndarray
+    t_junctions: np.ndarray = ()
+    label: str = ""
+
+    def __post_init__(self):
+        m = np.asarray(self.mask)
+        if m.ndim == 2 and m.shape[1] == 2 and m.dtype.kind == "f":
+            if len(m) < 3 or not np.all(np.isfinite(m)):
+                raise ValueError(f"Occlusion polygon needs >= 3 finite points, got {m.shape}")
+            m = m.astype(np.float64)
+        elif m.ndim == 2:
+            if m.dtype != bool:
+                if not np.isin(np.unique(m), (0, 1)).all():
+                    raise ValueError("Occlusion mask must be boolean (or 0/1), or a (k, 2) "
+                                     "float polygon")
+                m = m.astype(bool)
+            if not m.any():
+                raise ValueError("Occlusion mask is empty")
+        else:
+            raise ValueError(f"Occlusion mask must be (H, W) bool or a (k, 2) float polygon, "
+                             f"got shape {m.shape}")
+        tj = np.asarray(self.t_junctions, dtype=np.float64).reshape(-1, 2)
+        if not np.all(np.isfinite(tj)):
+            raise ValueError("t_junctions contain NaN or inf")
+        object.__setattr__(self, "mask", m)
+        object.__setattr__(self, "t_junctions", tj)
+
+    def __repr__(self):
+        kind = "polygon" if self.is_polygon else f"mask {self.mask.shape[1]}x{self.mask.shape[0]}"
+        return f"Occlusion({kind}, {len(self.t_junctions)} T-junctions, label={self.label!r})"
+
+    @property
+    def is_polygon(self):
+        return self.mask.dtype != bool
+
+    def mask_array(self, shape):
+        """(H, W) bool mask of the region (polygons rasterised at pixel centres)."""
+        H, W = shape
+        if not self.is_polygon:
+            if self.mask.shape != (H, W):
+                raise ValueError(f"occlusion mask shape {self.mask.shape} differs from the "
+                                 f"image's {(H, W)}")
+            return self.mask
+        from matplotlib.path import Path as MplPath
+
+        yy, xx = np.mgrid[0:H, 0:W]
+        return MplPath(self.mask).contains_points(
+            np.c_[xx.ravel(), yy.ravel()]).reshape(H, W)
+
+    def to_dict(self):
+        """JSON-friendly dict: the outline polygon(s) of a mask are stored as points."""
+        if self.is_polygon:
+            poly = self.mask.tolist()
+        else:
+            from ..mesh import boundary_polygon
+
+            poly = boundary_polygon(self.mask, epsilon=0.5).tolist()
+        return {"polygon": poly, "t_junctions": self.t_junctions.tolist(), "label": self.label}
+
+    @classmethod
+    def from_dict(cls, d, where="occlusion"):
+        if not isinstance(d, dict) or "polygon" not in d:
+            raise ValueError(f"{where}: expected an object with 'polygon' (list of [x, y]) and "
+                             f"optional 't_junctions', 'label'")
+        try:
+            return cls(np.asarray(d["polygon"], dtype=np.float64),
+                       np.asarray(d.get("t_junctions", []), dtype=np.float64),
+                       str(d.get("label", "")))
+        except (TypeError, ValueError) as err:
+            raise ValueError(f"{where}: {err}") from None
+
+
+def save_occlusions(path, occlusions):
+    """Write a list of :class:`Occlusion` as JSON (atomic: a failed write keeps the old file)."""
+    from .._io import atomic_write_text
+
+    data = {"occlusions": [o.to_dict() for o in occlusions]}
+    atomic_write_text(Path(path), json.dumps(data, indent=1))
+
+
+def load_occlusions(path):
+    """Read :func:`save_occlusions`' JSON; errors name the file and the entry."""
+    path = Path(path)
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except json.JSONDecodeError as err:
+        raise ValueError(f"{path}: not valid JSON ({err})") from None
+    items = data.get("occlusions") if isinstance(data, dict) else data
+    if not isinstance(items, list):
+        raise ValueError(f"{path}: expected {{'occlusions': [...]}} or a list of occlusions")
+    return [Occlusion.from_dict(d, f"{path}: occlusions[{i}]") for i, d in enumerate(items)]
+
+
+# ---------------------------------------------------------------------- switching rule
+def valid_assignments(n, t_junctions):
+    """All assignments ``b`` of one closed outline allowed by the switching rule (Eq. 2).
+
+    The outline has vertices ``0..n−1`` and edges ``i = (i, i+1 mod n)``. ``b`` must switch
+    (``b_{i−1} ≠ b_i``) at every T-junction vertex and may switch at most at one other vertex
+    (a cusp); the number of switches around a loop is even, so a cusp appears exactly when the
+    number ``k`` of T-junctions is odd.
+
+    Parameters
+    ----------
+    n : int ≥ 3, edges (= vertices) of the loop.
+    t_junctions : sequence of distinct vertex indices in ``0..n−1``.
+
+    Returns
+    -------
+    list of ``(b, cusp)`` with ``b`` (n,) int8 in {0, 1} and ``cusp`` the cusp vertex or
+    None: 2 entries for even ``k``, ``2 (n − k)`` for odd ``k``.
+    """
+    n = int(n)
+    tj = sorted({int(v) for v in t_junctions})
+    if n < 3:
+        raise ValueError(f"an outline needs n >= 3 edges, got {n}")
+    if len(tj) != len(list(t_junctions)):
+        raise ValueError("t_junctions repeat a vertex; give each T-junction once")
+    if tj and (tj[0] < 0 or tj[-1] >= n):
+        raise ValueError(f"t_junctions must be vertex indices in 0..{n - 1}, got {tj}")
+    if len(tj) >= n:
+        raise ValueError(f"{len(tj)} T-junctions on an outline of {n} edges leave no edge "
+                         "between them")
+
+    def build(switches, first):
+        b = np.empty(n, np.int8)   # b_i of edge i = (i, i+1); a switch at v: b_{v-1} != b_v
+        b[0] = first
+        for i in range(1, n):
+            b[i] = 1 - b[i - 1] if i in switches else b[i - 1]
+        return b
+
+    out = []
+    if len(tj) % 2 == 0:
+        for first in (0, 1):
+            out.append((build(set(tj), first), None))
+    else:
+        for c in range(n):
+            if c in tj:
+                continue
+            for first in (0, 1):
+                out.append((build(set(tj) | {c}, first), c))
+    return out
+
+
+def switch_points(points, labels, min_run=3):
+    """Points of a closed outline where a boolean label along it switches (T-junctions).
+
+    ``points`` (m, 2) in order around the loop, ``labels`` (m,) bool (e.g. "this outline point
+    follows the occluder's silhouette"). Runs shorter than ``min_run`` points are absorbed by
+    their neighbours first (pixel noise at the crossings). Returns (s, 2): the midpoint of each
+    switching pair.
+    """
+    P = np.asarray(points, dtype=float)
+    lab = np.asarray(labels, bool).copy()
+    m = len(lab)
+    for _ in range(m):
+        sw = np.flatnonzero(lab != np.roll(lab, -1))
+        if len(sw) < 2:
+            break
+        runs = np.diff(np.r_[sw, sw[0] + m])             # run after each switch
+        short = np.argmin(runs)
+        if runs[short] >= min_run:
+            break
+        idx = (sw[short] + 1 + np.arange(runs[short])) % m
+        lab[idx] = ~lab[idx]
+    sw = np.flatnonzero(lab != np.roll(lab, -1))
+    return 0.5 * (P[sw] + P[(sw + 1) % m]) if len(sw) >= 2 else np.zeros((0, 2))
+
+
+def count_valid_assignments(n, k):
+    """Number of valid assignments of an outline of ``n`` edges with ``k`` T-junctions:
+    2 for even ``k``, ``2 (n − k)`` for odd ``k`` (Sec. 4.4)."""
+    return 2 if k % 2 == 0 else 2 * (n - k)
+
+
+# ---------------------------------------------------------------------- regions, meshing
+def _insert_on_outline(P, q):
+    """Insert the projection of ``q`` onto polygon ``P``'s nearest edge as a vertex (unless a
+    vertex is within 1 px); returns (P', index of that vertex, distance from q)."""
+    A, B = P, np.roll(P, -1, axis=0)
+    AB = B - A
+    t = np.clip(np.einsum("ij,ij->i", q - A, AB) / np.maximum(np.einsum("ij,ij->i", AB, AB),
+                                                              1e-12), 0.0, 1.0)
+    proj = A + t[:, None] * AB
+    d = np.linalg.norm(proj - q, axis=1)
+    e = int(np.argmin(d))
+    dv = np.linalg.norm(P - proj[e], axis=1)  # an existing vertex at the projection: reuse it
+    if dv.min() <= 1.0:
+        v = int(np.argmin(dv))
+        return P, v, float(np.linalg.norm(P[v] - q))
+    return np.insert(P, e + 1, proj[e], axis=0), e + 1, float(d[e])
+
+
+def refine_through_t_junctions(polygon, t_junctions, radius=REFINE_RADIUS,
+                               tolerance=T_JUNCTION_TOLERANCE, where="occlusion"):
+    """Deform an occlusion outline so it passes through its T-junctions (Sec. 4.1).
+
+    The outline point nearest each T-junction becomes a vertex; the polygon is triangulated
+    and deformed by minimising the symmetric Dirichlet energy plus the pose term (Eq. 1's
+    energies) with that vertex pulled onto the T-junction and every outline vertex farther
+    than ``radius`` px from all T-junctions held in place.
+
+    Returns
+    -------
+    (P, tj_index): the refined polygon (k', 2) (T-junctions exactly on it) and the vertex index
+    of each T-junction.
+
+    Raises
+    ------
+    ValueError naming the T-junction that lies more than ``tolerance`` px from the outline.
+    """
+    from ..mesh import triangulate_polygon
+    from .deform import SymmetricDirichletDeformer
+
+    P = np.asarray(polygon, dtype=float)
+    tjs = np.asarray(t_junctions, dtype=float).reshape(-1, 2)
+    if not len(tjs):
+        return P, np.zeros(0, np.int64)
+    idx = []
+    for i, q in enumerate(tjs):
+        P2, v, d = _insert_on_outline(P, q)
+        if d > tolerance:
+            raise ValueError(f"{where}: t_junctions[{i}] at ({q[0]:.1f}, {q[1]:.1f}) lies "
+                             f"{d:.1f} px from the occlusion mask's outline (at most "
+                             f"{tolerance:g} px): move it onto the outline, where one drawn line "
+                             "ends against another")
+        if P2 is not P:
+            idx = [j + 1 if j >= v else j for j in idx]
+        P = P2
+        idx.append(v)
+    idx = np.asarray(idx, np.int64)
+    if len(set(idx.tolist())) != len(idx):
+        raise ValueError(f"{where}: two T-junctions snap to the same outline point; keep "
+                         "T-junctions at least 2 px apart")
+    moved = tjs - P[idx]
+    if np.abs(moved).max() < 1e-9:
+        return P, idx
+    from scipy.spatial import cKDTree
+
+    mesh = triangulate_polygon(P, min_angle=20.0)
+    vid = cKDTree(mesh.X).query(P)[1]  # the outline's vertices in the mesh
+    far = np.linalg.norm(P[:, None] - tjs[None], axis=2).min(axis=1) > radius
+    fixed = np.flatnonzero(far)
+    rows = vid[np.concatenate([idx, fixed])]
+    B = sparse.csr_matrix((np.ones(len(rows)), (np.arange(len(rows)), rows)),
+                          shape=(len(rows), mesh.n))
+    targets = np.concatenate([tjs, P[fixed]])
+    D = SymmetricDirichletDeformer(mesh.X, mesh.tris, B, mu=200.0)
+    x = D.solve(targets, x0=mesh.X.copy()).x
+    P = x[vid].copy()
+    P[idx] = tjs  # exactly on them (the pose term leaves sub-pixel residuals)
+    return P, idx
+
+
+@dataclass
+class OcclusionRegion:
+    """One region of a :class:`LayeredTemplate`.
+
+    Attributes
+    ----------
+    loop : (n,) int, the outline's vertices in order (ids of the base mesh, layer A).
+    t_junctions : (k,) int positions in ``loop`` of the T-junctions.
+    non_manifold : (n,) bool per outline edge ``(loop[i], loop[i+1])``: both layers stay
+        attached (Sec. 4.3).
+    tris_a, tris_b : int indices into the template's triangles: the base mesh's triangles in
+        the region (layer A) and the pocket's (layer B).
+    b : (n,) int8, the chosen assignment (0: layer A attached to the outside at that edge,
+        1: layer B), ``cusp`` its cusp vertex or None.
+    energies : list of (b, cusp, energy) of every assignment tried.
+    front : "A" or "B", the layer in front (Sec. 5.1), ``depth`` (2,) mean layer depths.
+    label : the :class:`Occlusion`'s label.
+    """
+
+    loop: np.ndarray
+    t_junctions: np.ndarray
+    non_manifold: np.ndarray
+    tris_a: np.ndarray
+    tris_b: np.ndarray
+    pocket_of: dict
+    b: np.ndarray = None
+    cusp: int = None
+    energies: list = field(default_factory=list)
+    front: str = "A"
+    depth: np.ndarray = None
+    label: str = ""
+
+    @property
+    def n_edges(self):
+        return len(self.loop)
+
+    def visible_edges(self):
+        """(n,) bool: outline edges that are *visible* occlusion contours — the front layer is
+        cut there (Fig. 6: blue); the others are hidden contours (red)."""
+        front_attached = 0 if self.front == "A" else 1
+        return (self.b != front_attached) & ~self.non_manifold
+
+
+def _loop_of(tris_in, n_vertices):
+    """Ordered outline (longest boundary loop) of a set of triangles."""
+    E = np.concatenate([tris_in[:, [0, 1]], tris_in[:, [1, 2]], tris_in[:, [2, 0]]])
+    key = np.sort(E, axis=1)
+    _, inv, counts = np.unique(key, axis=0, return_inverse=True, return_counts=True)
+    bnd = E[counts[inv.ravel()] == 1]  # oriented boundary edges (triangles are CCW)
+    nxt = {}
+    for a, c in bnd:
+        nxt.setdefault(int(a), []).append(int(c))
+    loops, seen = [], set()
+    for start in list(nxt):
+        if start in seen:
+            continue
+        loop, v = [], start
+        while v not in seen:
+            seen.add(v)
+            loop.append(v)
+            cand = [w for w in nxt.get(v, []) if w not in seen]
+            if not cand:
+                break
+            v = cand[0]
+        loops.append(loop)
+    return np.asarray(max(loops, key=len), np.int64)
+
+
+def _segments_cross(p0, p1, q0, q1):
+    def orient(a, b, c):
+        return np.sign((b[..., 0] - a[..., 0]) * (c[..., 1] - a[..., 1])
+                       - (b[..., 1] - a[..., 1]) * (c[..., 0] - a[..., 0]))
+    return (orient(p0, p1, q0) * orient(p0, p1, q1) < 0) & \
+        (orient(q0, q1, p0) * orient(q0, q1, p1) < 0)
+
+
+def _non_manifold_edges(X, loop, skeleton):
+    """Sec. 4.3's heuristic: for each multi-valence joint (≥ 3 bones) lying inside the region
+    (where the two layers' body parts meet, e.g. a hip inside a thigh-over-belly overlap), the
+    outline edge closest to it that a bone crosses in 2D keeps both layers attached.
+
+    The paper picks the closest crossed edge to such joints without asking for the joint to be
+    inside; on a forearm lying across the belly near the chest that glues the forearm to the
+    torso, so physlab asks for it (a documented difference)."""
+    from matplotlib.path import Path as MplPath
+
+    n = len(loop)
+    nm = np.zeros(n, bool)
+    A, B = X[loop], X[np.roll(loop, -1)]
+    bones = skeleton.bones
+    valence = np.bincount(bones.ravel(), minlength=len(skeleton))
+    crossed = np.zeros(n, bool)
+    for p, c in bones:
+        crossed |= _segments_cross(A, B, skeleton.xy[p][None], skeleton.xy[c][None])
+    if not crossed.any():
+        return nm
+    inside = MplPath(A).contains_points(skeleton.xy)
+    mid = 0.5 * (A + B)
+    for j in np.flatnonzero((valence >= 3) & inside):
+        d = np.linalg.norm(mid - skeleton.xy[j], axis=1)
+        cand = np.flatnonzero(crossed)
+        nm[cand[np.argmin(d[cand])]] = True
+    return nm
+
+
+@dataclass(frozen=True, eq=False)
+class LayeredTemplate(Template):
+    """A :class:`~physlab.inbetween.template.Template` with occlusion layers.
+
+    Extra attributes
+    ----------------
+    regions : list of :class:`OcclusionRegion`.
+    vertex_layer : (n,) int8, 0 for the base mesh, 1 for pocket vertices.
+    handle_weights : (n, K) float, bounded biharmonic weights of the handles (Sec. 5.1).
+    handle_depth : (K,) float, depth of each handle (joints, then bone midpoints) at rest.
+    texture : (2H, W, 4) float32 atlas: the keyframe on top, the back layers' texture below.
+    tex_coords : (T, 3, 2) texture position of every triangle corner in the atlas.
+    inpainted_fraction : float in [0, 1], share of back-layer area that had to be inpainted
+        (0 without occlusions): the texture quality the blending optimisation can use.
+    occlusions : list of the :class:`Occlusion` it was built from.
+    """
+
+    regions: list = field(default_factory=list)
+    vertex_layer: np.ndarray = None
+    handle_weights: np.ndarray = None
+    handle_depth: np.ndarray = None
+    texture: np.ndarray = None
+    tex_coords: np.ndarray = None
+    inpainted_fraction: float = 0.0
+    occlusions: list = field(default_factory=list)
+
+    def __repr__(self):
+        h, w = self.image.shape[:2]
+        return (f"LayeredTemplate({self.mesh.n} vertices, {self.mesh.n_tris} triangles, "
+                f"{len(self.regions)} occlusion region(s), image {h}x{w})")
+
+    def triangle_depth(self, skeleton=None):
+        """(T,) depth of every triangle (mean of its vertices' skinned depths) at the pose of
+        ``skeleton`` (default: the template's own); smaller = nearer."""
+        d = self.handle_depth if skeleton is None or skeleton.depth is None \
+            else _handle_depth(skeleton)
+        if d is None:
+            return np.zeros(self.mesh.n_tris)
+        v = self.handle_weights @ d
+        return v[self.mesh.tris].mean(axis=1)
+
+    def render(self, x, out_shape=None, supersample=2, skeleton=None):
+        """The textured layered template at deformed vertices ``x`` (n, 2), triangles drawn back
+        to front by their skinned depth at ``skeleton``'s pose (painter's algorithm).
+
+        Returns (H, W, 4) float32 straight RGBA.
+        """
+        from ..render import warp_texture
+
+        x = np.asarray(x, dtype=float)
+        order = np.argsort(-self.triangle_depth(skeleton), kind="stable")
+        tris = self.mesh.tris[order]
+        corners = x[tris].reshape(-1, 2)
+        uv = self.tex_coords[order].reshape(-1, 2)
+        T = len(tris)
+        return warp_texture(self.texture, uv, corners, np.arange(3 * T).reshape(T, 3),
+                            self.shape if out_shape is None else out_shape,
+                            supersample=supersample)
+
+
+def _handle_depth(skeleton):
+    if skeleton.depth is None:
+        return None
+    b = skeleton.bones
+    return np.concatenate([skeleton.depth, 0.5 * (skeleton.depth[b[:, 0]] + skeleton.depth[b[:, 1]])])
+
+
+def incise(tris, regions, assignments, n_vertices=None):
+    """Cut every region's pocket loose along its outline by vertex re-indexing (Algorithm 1).
+
+    For each outline vertex and each layer: the layer keeps the shared (base-mesh) vertex when
+    at least one of the vertex's two outline edges attaches that layer to the outside
+    (``b`` picks the layer; non-manifold edges attach both), else it gets its own copy — so a
+    layer is cut exactly along the edges where it is not attached, and the cut ends at
+    T-junctions and cusps.
+
+    Parameters
+    ----------
+    tris : (T, 3) int triangles of the sewn template (base mesh + pockets).
+    regions : list of :class:`OcclusionRegion`.
+    assignments : list of (n_r,) int8 ``b`` per region.
+    n_vertices : int, vertices of the sewn template (default ``tris.max() + 1``).
+
+    Returns
+    -------
+    (tris', n_new, copies): the re-indexed triangles, the number of vertices added, and the
+    ``(original vertex, layer)`` of each added vertex (vertex ids ``n, n+1, …``).
+    """
+    tris = np.array(tris, copy=True)
+    n0 = int(tris.max()) + 1 if n_vertices is None else int(n_vertices)
+    copies = []
+    for reg, b in zip(regions, assignments):
+        n = reg.n_edges
+        b = np.asarray(b)
+        prev = np.roll(np.arange(n), 1)
+        for layer, sel, ids in ((0, reg.tris_a, None), (1, reg.tris_b, reg.pocket_of)):
+            attached = (b == layer) | reg.non_manifold        # per edge i = (v_i, v_i+1)
+            keep = attached | attached[prev]                  # per vertex: either edge
+            for i in np.flatnonzero(~keep):
+                v = int(reg.loop[i])
+                new = n0 + len(copies)
+                copies.append((v, layer))
+                sub = tris[sel]
+                sub[sub == v] = new
+                tris[sel] = sub
+    return tris, len(copies), copies
+
+
+def _expand(X, copies):
+    return np.concatenate([X, X[[v for v, _ in copies]]]) if copies else X
+
+
+def build_layered_template(image, skeleton, occlusions=(), mask=None, mask_predictor=None,
+                           max_area=None, epsilon=2.0, min_angle=20.0, grow=3,
+                           target_skeletons=None, other_image=None, other_occlusions=(),
+                           other_mask=None, inpainter=None, mu=200.0, cusp_scan=CUSP_SCAN,
+                           region_triangles=REGION_TRIANGLES, name="keyframe"):
+    """A keyframe's occlusion-aware template (Secs. 4.1–4.4, 5.1; module docstring).
+
+    Parameters
+    ----------
+    image : (H, W, 3|4) keyframe.
+    skeleton : Skeleton (pixels), with ``depth`` when regions hold limbs of different depth.
+    occlusions : list of :class:`Occlusion` (empty: a single sheet, drawn in depth order).
+    mask, mask_predictor, max_area, epsilon, min_angle, grow : as
+        :func:`~physlab.inbetween.template.build_template`.
+    target_skeletons : list of Skeletons the template is deformed through to score the
+        topologies (e.g. the animation towards the other key); required with occlusions.
+    other_image, other_occlusions, other_mask : the other keyframe (texture for back layers,
+        Sec. 5.1); without it back layers are inpainted.
+    inpainter : callable ``(rgba (H, W, 4) float, hole (H, W) bool) -> rgba`` (default OpenCV
+        Telea on the colour, the seam for a learned inpainter).
+    mu : pose weight μ of the scoring deformations.
+    cusp_scan : int, cusp positions scanned before refinement (odd numbers of T-junctions).
+    region_triangles : int, about how many triangles each occlusion region gets (its layers
+        must bend with the limbs inside it; the rest of the mesh keeps ``max_area``).
+    name : str for messages.
+
+    Returns
+    -------
+    LayeredTemplate.
+
+    Raises
+    ------
+    ValueError for masks of another size, occlusions outside the foreground, T-junctions off
+    their outline, a skeleton without depth when a region holds handles of both layers…
+    """
+    from scipy import ndimage
+    from scipy.spatial import cKDTree
+
+    from ..mesh import TriMesh, boundary_polygon, locate_points
+    from .template import keyframe_mask
+
+    img, mask, grown = keyframe_mask(image, skeleton, mask, mask_predictor, grow, name)
+    H, W = img.shape[:2]
+    occlusions = list(occlusions or ())
+    for i, o in enumerate(occlusions):
+        if not isinstance(o, Occlusion):
+            raise TypeError(f"{name}: occlusions[{i}] is a {type(o).__name__}, not an Occlusion")
+    filled = ndimage.binary_fill_holes(grown)
+    outer = boundary_polygon(filled, epsilon=epsilon, min_corner_angle=min_angle)
+    # gaps enclosed by the figure (between crossed legs, an arm and the hip) stay holes
+    gaps, n_gaps = ndimage.label(filled & ~grown)
+    holes = [boundary_polygon(gaps == g, epsilon=epsilon)
+             for g in range(1, n_gaps + 1) if (gaps == g).sum() >= MIN_HOLE_AREA]
+
+    # ---- regions: masks inside the foreground, outlines through the T-junctions (Sec. 4.1)
+    inner = ndimage.binary_erosion(mask, iterations=2)
+    polys, tj_pos, labels = [], [], []
+    for i, o in enumerate(occlusions):
+        m = o.mask_array((H, W))
+        outside = m & ~grown
+        if outside.sum() > 0.05 * m.sum():
+            raise ValueError(f"{name}: occlusions[{i}] ({o.label or 'unlabelled'}) lies "
+                             f"{100 * outside.sum() / m.sum():.0f} % outside the foreground "
+                             "mask; occlusion regions are parts of the drawing")
+        m = m & inner
+        comps, k = ndimage.label(m)
+        if k == 0:
+            raise ValueError(f"{name}: occlusions[{i}] is empty inside the foreground")
+        big = np.argmax(np.bincount(comps.ravel())[1:]) + 1
+        P = boundary_polygon(comps == big, epsilon=epsilon)
+        P, tj = refine_through_t_junctions(P, o.t_junctions, where=f"{name}: occlusions[{i}]")
+        polys.append(P)
+        tj_pos.append(P[tj])
+        labels.append(o.label)
+
+    # ---- base mesh with the outlines as constrained edges (Sec. 4.2)
+    handles = skeleton.handles()
+    dist_in = ndimage.distance_transform_edt(grown)
+    ij = np.clip(np.round(handles[:, ::-1]).astype(int), 0, [H - 1, W - 1])
+    ok = dist_in[ij[:, 0], ij[:, 1]] > epsilon + 1.5
+    for P in polys:  # keep handles off the region outlines (no slivers)
+        A, B = P, np.roll(P, -1, axis=0)
+        AB = B - A
+        t = np.clip(np.einsum("kij,ij->ki", handles[:, None] - A[None], AB)
+                    / np.maximum(np.einsum("ij,ij->i", AB, AB), 1e-12), 0, 1)
+        d = np.linalg.norm(handles[:, None] - (A[None] + t[..., None] * AB[None]), axis=2).min(1)
+        ok &= d > 2.0
+    cand = np.flatnonzero(ok)
+    if len(cand):
+        _, first = np.unique(np.round(handles[cand], 6), axis=0, return_index=True)
+        cand = cand[np.sort(first)]
+    if holes:  # handles inside a hole cannot be vertices
+        from matplotlib.path import Path as _P
+
+        for h in holes:
+            cand = cand[~_P(h).contains_points(handles[cand])] if len(cand) else cand
+    mesh = _triangulate_pslg(outer, polys, handles[cand], max_area, min_angle,
+                             region_triangles, holes)
+    X, tris = mesh.X, mesh.tris
+    cent = X[tris].mean(axis=1)
+    from matplotlib.path import Path as MplPath
+
+    regions = []
+    in_any = np.zeros(len(tris), bool)
+    pocket_tris, pocket_X = [], []
+    n_base = len(X)
+    for r, P in enumerate(polys):
+        inside = MplPath(P).contains_points(cent) & ~in_any
+        if not inside.any():
+            raise ValueError(f"{name}: occlusions[{r}] holds no triangle of the mesh (too small?)")
+        in_any |= inside
+        sel = np.flatnonzero(inside)
+        loop = _loop_of(tris[sel], len(X))
+        tj_ids = cKDTree(X[loop]).query(tj_pos[r])[1] if len(tj_pos[r]) else np.zeros(0, int)
+        # pocket: copies of the region's interior vertices, outline shared
+        verts = np.unique(tris[sel])
+        interior = np.setdiff1d(verts, loop)
+        start = n_base + sum(len(p) for p in pocket_X)
+        pocket_of = {int(v): start + i for i, v in enumerate(interior)}
+        pocket_X.append(X[interior])
+        pt = tris[sel].copy()
+        for v, w in pocket_of.items():
+            pt[tris[sel] == v] = w
+        first_b = len(tris) + sum(len(p) for p in pocket_tris)
+        pocket_tris.append(pt)
+        regions.append(OcclusionRegion(
+            loop=loop, t_junctions=np.asarray(tj_ids, np.int64),
+            non_manifold=_non_manifold_edges(X, loop, skeleton),
+            tris_a=sel, tris_b=np.arange(first_b, first_b + len(sel)), pocket_of=pocket_of,
+            label=labels[r]))
+    X_all = np.concatenate([X] + pocket_X) if pocket_X else X
+    tris_all = np.concatenate([tris] + pocket_tris) if pocket_tris else tris
+    vertex_layer = np.zeros(len(X_all), np.int8)
+    vertex_layer[n_base:] = 1
+
+    # ---- handles: vertices (layer by depth inside regions) or barycentric in a triangle
+    hdepth = _handle_depth(skeleton)
+    handle_tris = np.full(len(handles), -1, np.int64)
+    handle_bary = np.zeros((len(handles), 3))
+    handle_vertices = np.full(len(handles), -1, np.int64)
+    base_mesh = TriMesh(X, tris)
+    tri0, bary0 = locate_points(base_mesh, handles)
+    tri0, bary0 = np.atleast_1d(tri0).astype(np.int64), np.atleast_2d(bary0)
+    missing = np.flatnonzero(tri0 < 0)
+    if missing.size:
+        from ..mesh import _barycentric
+
+        near_t = cKDTree(cent).query(handles[missing])[1]
+        tri0[missing] = near_t
+        bary0[missing] = _barycentric(X, tris, handles[missing], near_t)
+    layer_of_handle = np.zeros(len(handles), np.int8)
+    for reg in regions:
+        in_reg = np.isin(tri0, reg.tris_a)
+        if not in_reg.any():
+            continue
+        hs = np.flatnonzero(in_reg)
+        if hdepth is not None and np.ptp(hdepth[hs]) > 1e-9:
+            d = np.sort(hdepth[hs])
+            gap = np.argmax(np.diff(d))
+            cut = 0.5 * (d[gap] + d[gap + 1])
+            layer_of_handle[hs[hdepth[hs] > cut]] = 1
+    dv, vid = cKDTree(X).query(handles)
+    pos_in_a = {}
+    for reg in regions:
+        for k, t in enumerate(reg.tris_a):
+            pos_in_a[int(t)] = (reg, k)
+    for h in range(len(handles)):
+        t = int(tri0[h])
+        if layer_of_handle[h] == 1:
+            reg, k = pos_in_a[t]
+            t = int(reg.tris_b[k])
+        handle_tris[h] = t
+        handle_bary[h] = bary0[h]
+        if dv[h] < 1e-6:
+            v = int(vid[h])
+            if layer_of_handle[h] == 1:
+                v = pos_in_a[int(tri0[h])][0].pocket_of.get(v, v)
+            handle_vertices[h] = v
+            tv = tris_all[handle_tris[h]]
+            handle_bary[h] = (tv == v).astype(float) if (tv == v).any() else bary0[h]
+
+    def handle_matrix(tris_now, n_now):
+        K = len(handles)
+        rows = np.repeat(np.arange(K), 3)
+        cols = tris_now[handle_tris].ravel()
+        return sparse.csr_matrix((handle_bary.ravel(), (rows, cols)), shape=(K, n_now))
+
+    # ---- topology (Secs. 4.3–4.4, Algorithm 1): region by region, cheapest valid b
+    if regions:
+        if not target_skeletons:
+            raise ValueError(f"{name}: target_skeletons (the poses to deform into) are needed "
+                             "to choose the occlusion topology")
+        for reg in regions:
+            reg.b = valid_assignments(reg.n_edges, reg.t_junctions)[0][0]
+        for reg in regions:
+            cands = valid_assignments(reg.n_edges, reg.t_junctions)
+            scored = {}
+
+            def score(i):
+                if i not in scored:
+                    b, c = cands[i]
+                    reg.b = b
+                    t2, nn, copies = incise(tris_all, regions, [g.b for g in regions],
+                                            len(X_all))
+                    X2 = _expand(X_all, copies)
+                    e = _deformation_energy(X2, t2, handle_matrix(t2, len(X2)),
+                                            target_skeletons, mu)
+                    scored[i] = e
+                    reg.energies.append((b.copy(), c, e))
+                return scored[i]
+
+            if len(cands) <= 2 * cusp_scan + 2:
+                best = min(range(len(cands)), key=score)
+            else:  # odd k: coarse scan of cusp positions, then refine around the best
+                step = max(1, len(cands) // (2 * cusp_scan)) * 2
+                coarse = list(range(0, len(cands), step)) + list(range(1, len(cands), step))
+                best = min(coarse, key=score)
+                lo, hi = max(0, best - step - 1), min(len(cands), best + step + 2)
+                best = min(range(lo, hi), key=score)
+            reg.b, reg.cusp = cands[best][0], cands[best][1]
+
+    tris_f, _, copies = incise(tris_all, regions, [g.b for g in regions], len(X_all))
+    X_f = _expand(X_all, copies)
+    vertex_layer = np.concatenate([vertex_layer, [vertex_layer[v] if layer == 0 else 1
+                                                  for v, layer in copies]]).astype(np.int8)
+    handle_vertices_f = np.where(handle_vertices >= 0, tris_f[handle_tris].ravel()[
+        np.arange(len(handles)) * 3 + np.argmax(handle_bary, axis=1)], -1)
+    final_mesh = TriMesh(X_f, tris_f)
+
+    # ---- depth of layers: BBW weights of the handles × handle depths (Sec. 5.1)
+    weights = _handle_weights(X_f, tris_f, handle_vertices_f, handle_tris, handle_bary)
+    if regions:
+        for reg in regions:
+            if hdepth is None:
+                reg.depth = np.zeros(2)
+                reg.front = "A"
+                continue
+            vd = weights @ hdepth
+            da = vd[np.unique(tris_f[reg.tris_a])].mean()
+            db = vd[np.unique(tris_f[reg.tris_b])].mean()
+            reg.depth = np.array([da, db])
+            reg.front = "A" if da <= db else "B"
+
+    # ---- texture atlas (Sec. 5.1): keyframe on top, back layers below
+    back = np.zeros(len(tris_f), bool)
+    for reg in regions:
+        back[reg.tris_b if reg.front == "A" else reg.tris_a] = True
+    tex_coords = X_f[tris_f].copy()
+    texture, inpainted = img, 0.0
+    if back.any():
+        back_tex, inpainted = _back_texture(
+            img, mask, X_f, tris_f, back, weights, handle_matrix(tris_f, len(X_f)),
+            target_skeletons, other_image, other_occlusions, other_mask, mu, inpainter,
+            [o.mask_array((H, W)) for o in occlusions])
+        texture = np.concatenate([img, back_tex], axis=0)
+        tex_coords[back, :, 1] += H
+    else:
+        texture = np.concatenate([img, np.zeros_like(img)], axis=0)
+    return LayeredTemplate(
+        mesh=final_mesh, skeleton=skeleton, image=img, mask=mask, handle_tris=handle_tris,
+        handle_bary=handle_bary, handle_vertices=handle_vertices_f, layers=tuple(regions),
+        regions=regions, vertex_layer=vertex_layer, handle_weights=weights, handle_depth=hdepth,
+        texture=texture.astype(np.float32), tex_coords=tex_coords, inpainted_fraction=inpainted,
+        occlusions=occlusions)
+
+
+def _triangulate_pslg(outer, polys, points, max_area, min_angle, region_triangles, holes=()):
+    """Conforming Delaunay triangulation of the foreground outline with the region outlines as
+    constrained edges and ``points`` as vertices (Triangle ``pq A a``); each region gets its own
+    area bound (about ``region_triangles`` triangles)."""
+    import triangle as tr
+
+    from ..mesh import MIN_PIXEL_AREA, TriMesh, _compact, _orient_positive, default_max_area
+    from ..mesh import _point_inside_polygon, polygon_area
+
+    loops = [outer] + list(holes) + list(polys)
+    sizes = [len(L) for L in loops]
+    starts = np.cumsum([0] + sizes[:-1])
+    segments = np.concatenate([s + np.stack([np.arange(m), (np.arange(m) + 1) % m], axis=1)
+                               for s, m in zip(starts, sizes)])
+    V = np.concatenate(loops + ([points] if len(points) else []))
+    if max_area is None:
+        max_area = max(default_max_area(abs(polygon_area(outer))), MIN_PIXEL_AREA)
+    data = {"vertices": V, "segments": segments}
+    if len(holes):
+        data["holes"] = np.array([_point_inside_polygon(h) for h in holes])
+    if polys:
+        data["regions"] = np.array([[*_point_inside_polygon(P), r + 1,
+                                     min(max_area, max(abs(polygon_area(P)) / region_triangles,
+                                                       2.0))]
+                                    for r, P in enumerate(polys)])
+    area_str = np.format_float_positional(float(max_area), trim="-")
+    angle_str = np.format_float_positional(float(min_angle), trim="-")
+    opts = f"pq{angle_str}a{area_str}" + ("Aa" if polys else "") + "Q"
+    out = tr.triangulate(data, opts)
+    X = np.asarray(out["vertices"], dtype=np.float64)
+    tris = np.asarray(out["triangles"], dtype=np.int64)
+    X, tris = _compact(X, tris)
+    return TriMesh(X, _orient_positive(X, tris))
+
+
+def _deformation_energy(X, tris, B, target_skeletons, mu):
+    """``E_d + E_pose`` (Eq. 1) of the template deformed through ``target_skeletons`` (each
+    solve warm-started from the previous, large moves split, as :func:`deform_sequence`)."""
+    from .deform import SymmetricDirichletDeformer, deform_through
+
+    return float(deform_through(SymmetricDirichletDeformer(X, tris, B, mu=mu),
+                                target_skeletons).energy)
+
+
+def _handle_weights(X, tris, handle_vertices, handle_tris, handle_bary):
+    """(n, K) bounded biharmonic weights of the handles on the (non-manifold) layered mesh
+    (libigl ``bbw``, Jacobson et al. 2011), handles that are not vertices interpolated from
+    their triangle's corners' nearest handle weights."""
+    import igl
+
+    K = len(handle_vertices)
+    use = np.flatnonzero(handle_vertices >= 0)
+    b, first = np.unique(handle_vertices[use], return_index=True)
+    hs = use[first]
+    bc = np.zeros((len(b), len(b)))
+    bc[np.arange(len(b)), np.arange(len(b))] = 1.0
+    Wb = np.asarray(igl.bbw(X, tris, b.astype(np.int64), bc, partition_unity=False,
+                            max_iter=50), dtype=float)
+    Wb = np.clip(Wb, 0, 1)
+    Wb /= np.maximum(Wb.sum(1, keepdims=True), 1e-12)
+    W = np.zeros((len(X), K))
+    W[:, hs] = Wb
+    # handles sharing a vertex share its weight column
+    for h in use:
+        if h not in hs:
+            W[:, h] = W[:, hs[np.searchsorted(b, handle_vertices[h])]]
+    return W / np.maximum(W.sum(1, keepdims=True), 1e-12)
+
+
+def _telea(rgba, hole):
+    import cv2
+
+    rgb = np.clip(rgba[..., :3] * 255, 0, 255).astype(np.uint8)
+    out = cv2.inpaint(rgb, hole.astype(np.uint8), 5, cv2.INPAINT_TELEA)
+    res = rgba.copy()
+    res[..., :3] = np.where(hole[..., None], out / 255.0, rgba[..., :3])
+    res[..., 3] = np.where(hole, 1.0, rgba[..., 3])
+    return res
+
+
+def _back_texture(img, mask, X, tris, back, weights, B, target_skeletons, other_image,
+                  other_occlusions, other_mask, mu, inpainter, own_occ_masks):
+    """Texture of the back layers in the keyframe's frame (Sec. 5.1).
+
+    Where a back-layer triangle, deformed into the other key's pose, lands fully on the other
+    key's foreground and outside its occlusion regions, its texture comes from the other key;
+    the rest of the back layers' area is inpainted. Returns (texture (H, W, 4), inpainted
+    fraction of the back-layer area)."""
+    from scipy import ndimage
+
+    from ..render import warp_texture
+    from .deform import SymmetricDirichletDeformer, deform_through
+
+    H, W = img.shape[:2]
+    covered = np.zeros((H, W), bool)
+    for m in own_occ_masks:
+        covered |= m
+    # the back layers cover the occlusion regions of this key (in rest position)
+    hole = covered.copy()
+    tex = img.copy()
+    if other_image is not None and target_skeletons:
+        other = as_rgba_float(other_image, "other_image")
+        omask = other_mask if other_mask is not None else classical_foreground_mask(other)
+        occ = np.zeros((H, W), bool)
+        for o in other_occlusions or ():
+            occ |= o.mask_array((H, W))
+        ok_px = ndimage.binary_erosion(omask, iterations=1) & ~ndimage.binary_dilation(occ, iterations=2)
+        x = deform_through(SymmetricDirichletDeformer(X, tris, B, mu=mu), target_skeletons).x
+        bt = tris[back]
+        ij = np.clip(np.round(x[bt][..., ::-1]).astype(int), 0, [H - 1, W - 1])
+        good = ok_px[ij[..., 0], ij[..., 1]].all(axis=1)
+        if good.any():
+            # the other key pulled back onto the rest positions of the good triangles
+            pulled = warp_texture(other, x, X, bt[good], (H, W))
+            got = pulled[..., 3] > 0.5
+            tex = np.where((got & covered)[..., None], pulled, tex)
+            hole &= ~got
+    frac = float(hole.sum() / max(covered.sum(), 1))
+    tex = (inpainter or _telea)(tex, hole) if hole.any() else tex
+    return tex.astype(np.float32), frac
+
+
+# ------------------------------------------------------------------ suggestions, warnings
+def limb_overlaps(skeleton, radius=None, skip_adjacent=True):
+    """Pairs of non-adjacent bones whose capsules (radius ``radius`` px, default 2.5 % of the
+    skeleton's height) overlap in 2D: where limbs may occlude each other.
+
+    Returns list of ``(joint_a, joint_b)`` name pairs, each bone named by its end joint.
+    """
+    xy = skeleton.xy
+    bones = skeleton.bones
+    if radius is None:
+        radius = 0.025 * max(np.ptp(xy[:, 1]), np.ptp(xy[:, 0]), 1.0)
+    out = []
+    for i in range(len(bones)):
+        for j in range(i + 1, len(bones)):
+            a, b = bones[i], bones[j]
+            if skip_adjacent and len(set(a.tolist()) & set(b.tolist())):
+                continue
+            if skip_adjacent and (skeleton.parents[a[0]] in b or skeleton.parents[b[0]] in a):
+                continue
+            d = _segment_distance(xy[a[0]], xy[a[1]], xy[b[0]], xy[b[1]])
+            if d < 2 * radius:
+                out.append((skeleton.names[a[1]], skeleton.names[b[1]]))
+    return out
+
+
+def _segment_distance(p0, p1, q0, q1):
+    if _segments_cross(p0, p1, q0, q1):
+        return 0.0
+
+    def pt_seg(p, a, b):
+        ab = b - a
+        t = np.clip(np.dot(p - a, ab) / max(np.dot(ab, ab), 1e-12), 0, 1)
+        return np.linalg.norm(p - (a + t * ab))
+    return min(pt_seg(p0, q0, q1), pt_seg(p1, q0, q1), pt_seg(q0, p0, p1), pt_seg(q1, p0, p1))
+
+
+def suggest_occlusions(image, skeleton, radius=None, mask=None, predictor=None):
+    """Suggested occlusion regions of a keyframe: the CPU substitute for the paper's mask
+    network (Sec. 4.1), for the user to accept or edit.
+
+    For every pair of non-adjacent bones whose capsules (radius ``radius`` px) overlap in 2D,
+    the overlap of the two capsules inside the foreground is one region; without joint depths
+    nothing says which is in front (the template finds the topology, Sec. 4.3; depths pick the
+    front layer). T-junctions are left to the user (the paper asks for them too). ``predictor``
+    (``(image, skeleton) -> list of Occlusion``) replaces the heuristic with a learned one.
+
+    Returns list of :class:`Occlusion`.
+    """
+    if predictor is not None:
+        return list(predictor(image, skeleton))
+    img = as_rgba_float(image)
+    H, W = img.shape[:2]
+    fg = classical_foreground_mask(img) if mask is None else np.asarray(mask, bool)
+    if radius is None:
+        radius = 0.06 * max(np.ptp(skeleton.xy[:, 1]), np.ptp(skeleton.xy[:, 0]), 1.0)
+    yy, xx = np.mgrid[0:H, 0:W].astype(float)
+    P = np.stack([xx, yy], axis=-1)
+
+    def capsule(a, b):
+        ab = b - a
+        t = np.clip(((P - a) @ ab) / max(ab @ ab, 1e-12), 0, 1)
+        return np.linalg.norm(P - (a + t[..., None] * ab), axis=-1) < radius
+
+    out = []
+    for ja, jb in limb_overlaps(skeleton, radius):
+        a, b = skeleton.index(ja), skeleton.index(jb)
+        xa = skeleton.xy[[skeleton.parents[a], a]]
+        xb = skeleton.xy[[skeleton.parents[b], b]]
+        m = capsule(*xa) & capsule(*xb) & fg
+        if m.sum() >= 16:
+            out.append(Occlusion(m, (), label=f"{ja}/{jb}"))
+    return out
