@@ -44,6 +44,14 @@ def test_bench_inbetween_quick_runs(capsys):
     assert "paper Table 2" in capsys.readouterr().out
 
 
+def test_bench_inbetween_occluded_quick_runs(capsys):
+    bench_inbetween = _load("bench_inbetween")
+    out = bench_inbetween.main(["--occluded", "--quick"])
+    (row,) = out["rows"]
+    assert row["pair"] == "fold_arm" and row["occ"] == 1 and row["tried"] >= 2
+    assert row["single"] > 0 and "Table 2" in capsys.readouterr().out
+
+
 def test_bench_motion_quick_runs(real_data, capsys):
     bench_motion = _load("bench_motion")
     out = bench_motion.main(["--quick", "--threads", "1", "--repeats", "1"])

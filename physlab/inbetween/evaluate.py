@@ -49,6 +49,8 @@ __all__ = ["METHODS", "METRICS", "run_methods", "frame_scores", "score_frames",
            "AD_SHOTS", "pose_drawing", "animated_drawing_inbetween", "main"]
 
 METHODS = ("cross_dissolve", "flow", "physlab_diagonal", "physlab")
+#: Extra row of occluded pairs (kind "occluded"): physlab without the occlusion layers.
+SINGLE_SHEET = "physlab_single_sheet"
 METRICS = ("psnr", "ssim", "cd")
 #: larger is better for these metrics (the rest: smaller is better)
 HIGHER_IS_BETTER = {"psnr": True, "ssim": True, "cd": False}
@@ -176,7 +178,7 @@ def comparison_sheet(frames, truth=None, path=None, every=2, title=None):
     n = len(frames[METHODS[0]])
     known = dict(truth) if isinstance(truth, dict) else {}
     idx = sorted(set(range(0, n, every)) | {n - 1} | set(known))
-    rows = [(m, frames[m]) for m in METHODS]
+    rows = [(m, frames[m]) for m in METHODS + (SINGLE_SHEET,) if m in frames]
     if truth is not None and len(truth):
         rows.insert(0, ("ground truth", known or truth))
     H, W = np.asarray(frames[METHODS[0]][0]).shape[:2]
@@ -233,13 +235,30 @@ def evaluate_pairs(pairs, n_frames=11, progress=True, interpolator=None, sheets=
     for pair in it:
         key0, key1 = pair.keyframes()
         truth = np.asarray(pair.ground_truth(t))
+        occluded = getattr(pair, "kind", "") == "occluded"
+        extra = {}
+        if occluded:  # layered templates from the true occlusions (Secs. 4.1–4.4)
+            o0, o1 = pair.occlusions()
+            extra = {"occlusions0": o0, "occlusions1": o1}
         frames, res, sec = run_methods(key0, key1, pair.skeleton0, pair.skeleton1, n_frames,
                                        animation=pair.animation(n_frames),
-                                       interpolator=interpolator, **options)
+                                       interpolator=interpolator, **options, **extra)
+        methods = list(METHODS)
+        if occluded:  # the same pipeline as one sheet, for comparison
+            import warnings
+
+            tic = time.perf_counter()
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                one = inbetween(key0, key1, pair.skeleton0, pair.skeleton1, n_frames,
+                                animation=pair.animation(n_frames), interpolator=interpolator,
+                                **options)
+            frames[SINGLE_SHEET], sec[SINGLE_SHEET] = one.frames, time.perf_counter() - tic
+            methods.append(SINGLE_SHEET)
         if sheets is not None:
             comparison_sheet(frames, truth, Path(sheets) / f"{pair.name}.png",
                              title=f"{pair.name} ({pair.kind}, {getattr(pair, 'style', '')})")
-        for m in METHODS:
+        for m in methods:
             row = {"pair": pair.name, "kind": pair.kind, "method": m, "seconds": sec[m]}
             row.update(score_frames(frames[m], truth))
             if m.startswith("physlab"):
@@ -337,7 +356,7 @@ def summarize(rows):
     kinds = sorted({r["kind"] for r in rows}) + ["all"]
     keys = [f"{m}_{w}" for m in METRICS for w in ("mid", "all")]
     for kind in kinds:
-        for m in METHODS:
+        for m in METHODS + (SINGLE_SHEET,):
             sel = [r for r in rows if r["method"] == m and kind in (r["kind"], "all")]
             if sel:
                 out[kind, m] = {k: float(np.mean([r[k] for r in sel])) for k in keys}
@@ -472,6 +491,7 @@ def _parser():
                "  %(prog)s --out runs/inbetween_eval\n"
                "  %(prog)s --real --skip-benchmark --out runs/real    # needs ../shared/data\n"
                "  %(prog)s --pairs my_pair/ --out runs/my_pair          # one's own triplet\n"
+               "  %(prog)s --occluded --size 256 --out runs/occluded     # limbs crossing\n"
                "\na --pairs DIR folder:\n" + FOLDER_FORMAT.replace("%", "%%"))
     p.add_argument("--size", type=int, default=None,
                    help="image size of the procedural pairs in px (default 512)")
@@ -491,6 +511,10 @@ def _parser():
                         "motions (needs ../shared/data); contact sheets go to --out")
     p.add_argument("--skip-benchmark", action="store_true",
                    help="skip the procedural ground-truth benchmark")
+    p.add_argument("--occluded", action="store_true",
+                   help="evaluate the occlusion benchmark instead (limbs crossing the body; "
+                        "layered templates from the true occlusions, plus physlab as a single "
+                        "sheet)")
     return p
 
 
@@ -538,9 +562,10 @@ def main(argv=None):
     if isinstance(args.pairs, Path):
         _main_folder(args)
     elif not args.skip_benchmark:
-        from .characters import inbetween_benchmark
+        from .characters import inbetween_benchmark, occlusion_benchmark
 
-        pairs = inbetween_benchmark(size=512 if args.size is None else args.size)
+        bench = occlusion_benchmark if args.occluded else inbetween_benchmark
+        pairs = bench(size=512 if args.size is None else args.size)
         if args.pairs is not None:
             pairs = pairs[:args.pairs]
         rows = evaluate_pairs(pairs, n_frames=n_frames, progress=not args.no_progress,

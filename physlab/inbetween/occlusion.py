@@ -574,7 +574,8 @@ def build_layered_template(image, skeleton, occlusions=(), mask=None, mask_predi
                            max_area=None, epsilon=2.0, min_angle=20.0, grow=3,
                            target_skeletons=None, other_image=None, other_occlusions=(),
                            other_mask=None, inpainter=None, mu=200.0, cusp_scan=CUSP_SCAN,
-                           region_triangles=REGION_TRIANGLES, name="keyframe"):
+                           region_triangles=REGION_TRIANGLES, assignments=None,
+                           name="keyframe"):
     """A keyframe's occlusion-aware template (Secs. 4.1–4.4, 5.1; module docstring).
 
     Parameters
@@ -594,6 +595,10 @@ def build_layered_template(image, skeleton, occlusions=(), mask=None, mask_predi
     cusp_scan : int, cusp positions scanned before refinement (odd numbers of T-junctions).
     region_triangles : int, about how many triangles each occlusion region gets (its layers
         must bend with the limbs inside it; the rest of the mesh keeps ``max_area``).
+    assignments : None (choose by energy, Algorithm 1), or one index per region into
+        :func:`valid_assignments` of that region's outline — a fixed topology, e.g. a hand
+        annotation or the deliberately wrong one of the Fig. 8 experiment (the other indices'
+        energies are not computed).
     name : str for messages.
 
     Returns
@@ -625,7 +630,12 @@ def build_layered_template(image, skeleton, occlusions=(), mask=None, mask_predi
              for g in range(1, n_gaps + 1) if (gaps == g).sum() >= MIN_HOLE_AREA]
 
     # ---- regions: masks inside the foreground, outlines through the T-junctions (Sec. 4.1)
+    if occlusions and skeleton.depth is None:
+        raise ValueError(f"{name}: the skeleton has no joint depths, but occlusion layers need "
+                         "the depth order of the joints near each region (Sec. 4): "
+                         "skeleton.with_depth({'left_hand': -1.0, ...}) (smaller = nearer)")
     inner = ndimage.binary_erosion(mask, iterations=2)
+    seen = np.zeros((H, W), bool)
     polys, tj_pos, labels = [], [], []
     for i, o in enumerate(occlusions):
         m = o.mask_array((H, W))
@@ -635,6 +645,11 @@ def build_layered_template(image, skeleton, occlusions=(), mask=None, mask_predi
                              f"{100 * outside.sum() / m.sum():.0f} % outside the foreground "
                              "mask; occlusion regions are parts of the drawing")
         m = m & inner
+        if (m & seen).sum() > 0.05 * m.sum():
+            raise ValueError(f"{name}: occlusions[{i}] overlaps an earlier occlusion region: "
+                             "regions with more than two layers are not supported yet; split "
+                             "them into non-overlapping regions")
+        seen |= m
         comps, k = ndimage.label(m)
         if k == 0:
             raise ValueError(f"{name}: occlusions[{i}] is empty inside the foreground")
@@ -758,7 +773,17 @@ def build_layered_template(image, skeleton, occlusions=(), mask=None, mask_predi
         return sparse.csr_matrix((handle_bary.ravel(), (rows, cols)), shape=(K, n_now))
 
     # ---- topology (Secs. 4.3–4.4, Algorithm 1): region by region, cheapest valid b
-    if regions:
+    if assignments is not None:
+        if len(assignments) != len(regions):
+            raise ValueError(f"{name}: assignments has {len(assignments)} entries for "
+                             f"{len(regions)} occlusion region(s); give one index per region")
+        for r, (reg, a) in enumerate(zip(regions, assignments)):
+            cands = valid_assignments(reg.n_edges, reg.t_junctions)
+            if not 0 <= int(a) < len(cands):
+                raise ValueError(f"{name}: assignments[{r}] = {a} but region {r} has "
+                                 f"{len(cands)} valid assignments (0..{len(cands) - 1})")
+            reg.b, reg.cusp = cands[int(a)]
+    elif regions:
         if not target_skeletons:
             raise ValueError(f"{name}: target_skeletons (the poses to deform into) are needed "
                              "to choose the occlusion topology")

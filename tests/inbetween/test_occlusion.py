@@ -272,6 +272,14 @@ def test_layered_template_bad_input(fold):
                                target_skeletons=[pair.skeleton0])
     with pytest.raises(ValueError, match="target_skeletons"):
         build_layered_template(k1, pair.skeleton1, o1)
+    with pytest.raises(ValueError, match="no joint depths"):
+        build_layered_template(k1, pair.skeleton1.with_depth(None), o1,
+                               target_skeletons=[pair.skeleton0])
+    with pytest.raises(ValueError, match="overlaps an earlier occlusion region"):
+        build_layered_template(k1, pair.skeleton1, [o1[0], o1[0]],
+                               target_skeletons=[pair.skeleton0])
+    with pytest.raises(ValueError, match=r"assignments\[0\] = 5 but region 0 has 2"):
+        build_layered_template(k1, pair.skeleton1, o1, assignments=[5])
     with pytest.raises(TypeError, match=r"occlusions\[0\]"):
         build_layered_template(k1, pair.skeleton1, [o1[0].mask], target_skeletons=[pair.skeleton0])
 
