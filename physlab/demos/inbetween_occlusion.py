@@ -120,8 +120,9 @@ def template_figure(tpl):
         draw_mesh(ax, tpl.X, tpl.tris[back], lw=0.6, color="tab:purple")
         draw_mesh(ax, tpl.X + np.array([3.0, -3.0]), tpl.tris[front], lw=0.6, color="tab:green")
     _draw_outline(ax, tpl)
-    ax.set_xlim(box[0], box[1])
-    ax.set_ylim(box[2], box[3])
+    tight = _box([o.mask_array((H, W)) for o in tpl.occlusions], margin=6)
+    ax.set_xlim(tight[0], tight[1])
+    ax.set_ylim(tight[2], tight[3])
     ax.set_aspect(1, adjustable="box")
     ax.set_title("two layers in the region\n(front green, shifted; back purple)", fontsize=9)
     ax = axes[2]

@@ -24,6 +24,7 @@ import numpy as np
 from physlab.motion.camera import Camera, to_pixels
 from physlab.motion.sketch import Sketch, Stroke, TemplateSnapper
 from physlab.motion.skeleton import JOINT_NAMES, PARENTS
+from physlab.viz.canvas_widget import CanvasWidget, png_bytes
 
 __all__ = ["SketchCanvas", "COLORS"]
 
@@ -34,13 +35,7 @@ COLORS = {"pose": "#000000", "trajectory": "#dc0000", "joints": "#1f77b4",
 _GRAB_PX = 12          # a click this close to a joint grabs it
 
 
-def _png_bytes(rgb):
-    import imageio.v3 as iio
-
-    return iio.imwrite("<bytes>", np.asarray(rgb, dtype=np.uint8), extension=".png")
-
-
-class SketchCanvas:
+class SketchCanvas(CanvasWidget):
     """The widget (``display(SketchCanvas().widget)``).
 
     Parameters
@@ -91,38 +86,19 @@ class SketchCanvas:
         self.load = w.Button(description="Load")
         self.readout = w.HTML(value="Draw a stick figure, then trajectories in red.")
         self.result = w.Image(format="png", layout=w.Layout(max_width="520px"))
-        for b, f in ((self.snap, self._on_snap), (self.undo, self._on_undo),
-                     (self.clear, self._on_clear), (self.go, self._on_generate),
-                     (self.save, self._on_save), (self.load, self._on_load)):
-            b.on_click(lambda _b, f=f: self._guard(f))
+        self._on_clicks(((self.snap, self._on_snap), (self.undo, self._on_undo),
+                         (self.clear, self._on_clear), (self.go, self._on_generate),
+                         (self.save, self._on_save), (self.load, self._on_load)))
         for s in (self.pitch, self.yaw):
             s.observe(lambda _c: self._guard(self._on_camera), names="value")
         self.action.observe(lambda c: setattr(self.sketch, "action", c["new"]), names="value")
-        self.canvas.on_mouse_down(lambda x, y: self._guard(self._down, x, y))
-        self.canvas.on_mouse_move(lambda x, y: self._guard(self._move, x, y))
-        self.canvas.on_mouse_up(lambda x, y: self._guard(self._up, x, y))
+        self._route_mouse(self.canvas, self._down, self._move, self._up)
         controls = w.VBox([self.mode, self.action, self.pitch, self.yaw, self.by_speed,
                            w.HBox([self.snap, self.undo]), w.HBox([self.clear, self.go]),
                            self.file, w.HBox([self.save, self.load]), self.readout])
         self.widget = w.VBox([w.HBox([self.canvas, controls]), self.result])
         self.widget.add_class("physlab-sketch-canvas")
         self.redraw()
-
-    # -- plumbing
-    @property
-    def status(self):
-        return self.readout.value
-
-    def _say(self, text, error=False):
-        color = "#b00020" if error else "#333"
-        self.readout.value = f'<span style="color:{color}">{text}</span>'
-
-    def _guard(self, f, *args):
-        """Run a callback; show an error in the readout instead of losing it in the log."""
-        try:
-            f(*args)
-        except (ValueError, TypeError, OSError) as e:
-            self._say(f"{type(e).__name__}: {e}", error=True)
 
     # -- drawing
     def redraw(self):
@@ -282,8 +258,8 @@ class SketchCanvas:
             layer.stroke_lines(proj[:, 0].tolist())
         err = self.trajectory_error_px(proj)
         cond = self.conditions
-        self.result.value = _png_bytes(strobe(x, every=8, size=(520, 300),
-                                             backend=self.backend))
+        self.result.value = png_bytes(strobe(x, every=8, size=(520, 300),
+                                            backend=self.backend))
         msg = f"generated “{cond['action']}”"
         if err:
             msg += "; projected joint vs stroke: " + ", ".join(
