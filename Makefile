@@ -23,7 +23,7 @@ help:
 	@echo "make test       set up .venv and run the whole suite (unit tests, executed lessons, browser test)"
 	@echo "make reproduce  execute every lesson headless, write figures to reports/"
 	@echo "make bench      run the benchmarks in benchmarks/"
-	@echo "make motion-model  retrain the shipped motion checkpoints in data/motion/ (~100 min, 2 cores)"
+	@echo "make motion-model  retrain the shipped motion checkpoints in data/motion/ (~125 min, 2 cores)"
 
 # (Re)install whenever pyproject.toml changes.
 $(STAMP): pyproject.toml
@@ -77,11 +77,11 @@ bench: $(STAMP)
 	$(PY) benchmarks/run_all.py
 
 # Retrains data/motion/*.pt (part 4, Sketch2Anim) from the Bandai-Namco clips in ../shared/data
-# (every take but the held-out 002), on 2 cores, ~100 min in all: the text-motion evaluator
+# (every take but the held-out 002), on 2 cores, ~125 min in all: the text-motion evaluator
 # (1000 steps, ~7 min on one thread), the text-conditioned base denoiser (5000 steps, ~10 min),
 # the trajectory ControlNet + keypose adapter on the frozen base (6000 steps, ~33 min) and the
 # single-ControlNet ablation (6000 steps, the same budget, ~23 min), the 2D encoders aligned to the
-# 3D ones (align stage, 2000 steps, ~16 min) and the lift-and-control lifter (~10 min). Resumable: rerun after an
+# 3D ones (align stage, 5000 steps, ~40 min) and the lift-and-control lifter (~10 min). Resumable: rerun after an
 # interruption.
 # Full-precision checkpoints stay in $(MOTION_RUNS); data/ gets the fp16 inference copies.
 MOTION_RUNS  ?= runs/motion
@@ -100,7 +100,7 @@ motion-model: $(STAMP) motion-evaluator
 	$(MOTION_TRAIN) --stage control --single-controlnet --steps 6000 \
 		--base-ckpt $(MOTION_RUNS)/base.pt --out $(MOTION_RUNS)/single_controlnet.pt \
 		--export data/motion/sketch2anim_single_controlnet.pt
-	$(MOTION_TRAIN) --stage align --steps 2000 --base-ckpt $(MOTION_RUNS)/control.pt \
+	$(MOTION_TRAIN) --stage align --steps 5000 --base-ckpt $(MOTION_RUNS)/control.pt \
 		--out $(MOTION_RUNS)/align.pt --export data/motion/sketch2anim_control.pt
 	$(PY) -m physlab.motion.baselines train-lifter --steps 3000 --num-threads 2 \
 		--out $(MOTION_RUNS)/lifter.pt --export data/motion/sketch_lifter.pt

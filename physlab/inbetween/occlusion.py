@@ -76,6 +76,8 @@ T_JUNCTION_TOLERANCE = 6.0
 REFINE_RADIUS = 24.0
 #: Candidate cusp positions scanned before refinement (odd ``k``).
 CUSP_SCAN = 8
+#: Iterations per solve when an assignment is scored (see build_layered_template).
+SCORE_MAX_ITER = 200
 #: Gaps enclosed by the foreground at least this big (px²) are holes of the mesh.
 MIN_HOLE_AREA = 16
 #: About how many triangles each occlusion region is meshed with.
@@ -575,7 +577,7 @@ def build_layered_template(image, skeleton, occlusions=(), mask=None, mask_predi
                            target_skeletons=None, other_image=None, other_occlusions=(),
                            other_mask=None, inpainter=None, mu=200.0, cusp_scan=CUSP_SCAN,
                            region_triangles=REGION_TRIANGLES, assignments=None,
-                           name="keyframe"):
+                           score_max_iter=SCORE_MAX_ITER, name="keyframe"):
     """A keyframe's occlusion-aware template (Secs. 4.1–4.4, 5.1; module docstring).
 
     Parameters
@@ -595,6 +597,9 @@ def build_layered_template(image, skeleton, occlusions=(), mask=None, mask_predi
     cusp_scan : int, cusp positions scanned before refinement (odd numbers of T-junctions).
     region_triangles : int, about how many triangles each occlusion region gets (its layers
         must bend with the limbs inside it; the rest of the mesh keeps ``max_area``).
+    score_max_iter : int, iterations per solve when scoring an assignment (a wrong topology
+        converges slowly: uncapped, scoring one took 20 s of the 21 s of a 512² template,
+        capped at 200 the ranking is the same).
     assignments : None (choose by energy, Algorithm 1), or one index per region into
         :func:`valid_assignments` of that region's outline — a fixed topology, e.g. a hand
         annotation or the deliberately wrong one of the Fig. 8 experiment (the other indices'
@@ -801,7 +806,7 @@ def build_layered_template(image, skeleton, occlusions=(), mask=None, mask_predi
                                             len(X_all))
                     X2 = _expand(X_all, copies)
                     e = _deformation_energy(X2, t2, handle_matrix(t2, len(X2)),
-                                            target_skeletons, mu)
+                                            target_skeletons, mu, score_max_iter)
                     scored[i] = e
                     reg.energies.append((b.copy(), c, e))
                 return scored[i]
@@ -896,13 +901,16 @@ def _triangulate_pslg(outer, polys, points, max_area, min_angle, region_triangle
     return TriMesh(X, _orient_positive(X, tris))
 
 
-def _deformation_energy(X, tris, B, target_skeletons, mu):
+def _deformation_energy(X, tris, B, target_skeletons, mu, max_iter=None):
     """``E_d + E_pose`` (Eq. 1) of the template deformed through ``target_skeletons`` (each
-    solve warm-started from the previous, large moves split, as :func:`deform_sequence`)."""
+    solve warm-started from the previous, large moves split, as :func:`deform_sequence`), each
+    solve capped at ``max_iter`` iterations (the energy only falls with more: a capped wrong
+    topology still scores high)."""
     from .deform import SymmetricDirichletDeformer, deform_through
 
+    opts = {} if max_iter is None else {"max_iter": int(max_iter)}
     return float(deform_through(SymmetricDirichletDeformer(X, tris, B, mu=mu),
-                                target_skeletons).energy)
+                                target_skeletons, **opts).energy)
 
 
 def _handle_weights(X, tris, handle_vertices, handle_tris, handle_bary):
