@@ -1,6 +1,6 @@
 """Skeleton-driven inbetweening of bitmap drawings (Brodt & Bessmeltsev 2024).
 
-Modules: :mod:`.skeleton` (2D skeletons, bone-angle interpolation), :mod:`.template`
+Modules: :mod:`.skeleton` (2D skeletons, their interpolation between keys), :mod:`.template`
 (mask → Triangle mesh with handle vertices), :mod:`.deform` (symmetric Dirichlet energy,
 Sobolev-preconditioned quasi-Newton with injectivity line search), :mod:`.skinning` (LBS with
 bounded biharmonic weights, ARAP: comparisons), :mod:`.frame_interpolation` (optical-flow frame
@@ -19,11 +19,11 @@ from .deform import (SymmetricDirichletDeformer, deform, symmetric_dirichlet_ene
 from .occlusion import (LayeredTemplate, Occlusion, build_layered_template, load_occlusions,
                         save_occlusions, suggest_occlusions)
 from .pipeline import InbetweenResult, inbetween
-from .skeleton import Skeleton, check_compatible, interpolate
+from .skeleton import INTERPOLATION_METHODS, Skeleton, check_compatible, interpolate
 from .template import Template, build_template
 
-__all__ = ["Skeleton", "check_compatible", "interpolate", "Template", "build_template",
-           "SymmetricDirichletDeformer", "deform", "symmetric_dirichlet_energy",
+__all__ = ["Skeleton", "check_compatible", "interpolate", "INTERPOLATION_METHODS", "Template",
+           "build_template", "SymmetricDirichletDeformer", "deform", "symmetric_dirichlet_energy",
            "symmetric_dirichlet_gradient", "inbetween", "InbetweenResult",
            "CHARACTER_STYLES", "CHARACTER_JOINTS", "CHARACTER_PARTS", "ADJACENT_PARTS",
            "PAINT_ORDER", "character_skeleton", "pose_character", "render_character",

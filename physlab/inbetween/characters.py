@@ -5,8 +5,11 @@ skeletons and the skeletal motion ``x_i(t)`` between them, and must draw the fra
 between. To *measure* how well it does we need the true inbetweens, so this module draws a
 character from its skeleton: :func:`render_character` paints a humanoid at any pose of
 :func:`character_skeleton`, and :class:`InbetweenPair` renders the ground truth at
-``physlab.inbetween.interpolate(skeleton0, skeleton1, t)``. An inbetweener sees only
-:meth:`InbetweenPair.keyframes`, the two skeletons and :meth:`InbetweenPair.animation`.
+``physlab.inbetween.interpolate(skeleton0, skeleton1, t, method="local_angles")``. An
+inbetweener sees only :meth:`InbetweenPair.keyframes`, the two skeletons and
+:meth:`InbetweenPair.animation`. (Being the local-angle blend by construction, these pairs
+cannot rank interpolation schemes; :func:`physlab.inbetween.evaluate.interpolation_pairs` has
+pairs whose in-between poses come from motion capture.)
 
 The character
 -------------
@@ -922,14 +925,15 @@ class InbetweenPair:
                 render_character(self.skeleton1, self.style, self.size, self.seed))
 
     def skeleton_at(self, t):
-        """The skeleton at time ``t`` ∈ [0, 1] (a list for an array ``t``)."""
+        """The skeleton at time ``t`` ∈ [0, 1] (a list for an array ``t``): the local-angle
+        blend of the keys (``interpolate(..., method="local_angles")``), by definition."""
         ts = np.asarray(t, dtype=float)
         if np.any((ts < 0) | (ts > 1)) or not np.all(np.isfinite(ts)):
             raise ValueError(f"t must lie in [0, 1], got {t}")
-        return _skeleton.interpolate(self.skeleton0, self.skeleton1, t)
+        return _skeleton.interpolate(self.skeleton0, self.skeleton1, t, method="local_angles")
 
     def ground_truth(self, t):
-        """The true inbetween(s): the character rendered at ``interpolate(sk0, sk1, t)``.
+        """The true inbetween(s): the character rendered at :meth:`skeleton_at` ``(t)``.
 
         Parameters
         ----------
@@ -950,7 +954,7 @@ class InbetweenPair:
                 or n_frames < 2:
             raise ValueError(f"n_frames must be an int >= 2, got {n_frames!r}")
         return _skeleton.interpolate(self.skeleton0, self.skeleton1,
-                                 np.linspace(0.0, 1.0, int(n_frames)))
+                                     np.linspace(0.0, 1.0, int(n_frames)), method="local_angles")
 
     def occlusions(self):
         """The true occlusions of both keys: ``(list, list)`` of

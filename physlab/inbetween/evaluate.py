@@ -21,6 +21,13 @@ LPIPS needs pretrained AlexNet/VGG weights that cannot be fetched offline, so it
 out (:func:`~physlab.inbetween.metrics.lpips_status`). Scores are given for the middle frame
 (t = 0.5, the paper's protocol) and averaged over all in-betweens (keys excluded).
 
+Skeleton interpolation between keys (``--interpolation``, :func:`compare_interpolation`):
+the methods of :func:`~physlab.inbetween.skeleton.interpolate` against true in-between poses
+from motion capture — Bandai-Namco clips on the procedural character, and the
+AnimatedDrawings characters posed by their BVH motions — by joint error (px) and by the PSNR
+of the in-betweens they drive, beside the in-between driven by the true animation and the
+cross-dissolve.
+
 One's own keyframe pair — two keys, their skeletons, and in-betweens drawn by hand where
 there are some — is scored the same way by :func:`evaluate_folder` (``physlab evaluate
 inbetween --pairs DIR``; the folder layout is :mod:`physlab.inbetween.pair_folder`'s).
@@ -32,7 +39,9 @@ from __future__ import annotations
 import sys
 import textwrap
 import time
+from functools import partial
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
@@ -42,11 +51,15 @@ from .blend import render_path
 from .frame_interpolation import FlowInterpolator
 from .pair_folder import DEFAULT_FRAMES, FOLDER_FORMAT, load_pair_folder
 from .pipeline import _paper_colour, inbetween
+from .skeleton import INTERPOLATION_METHODS, interpolate
 from .template import as_rgba_float
 
 __all__ = ["METHODS", "METRICS", "run_methods", "frame_scores", "score_frames",
            "comparison_sheet", "evaluate_pairs", "evaluate_folder", "summarize", "format_table",
-           "AD_SHOTS", "pose_drawing", "animated_drawing_inbetween", "main"]
+           "AD_SHOTS", "pose_drawing", "animated_drawing_inbetween", "INTERPOLATION_SOURCES",
+           "MOCAP_CLIPS", "CHARACTER_BANDAI_MAPPING", "InterpolationPair", "interpolation_pairs",
+           "interpolation_errors", "interpolation_psnr", "interpolation_table",
+           "compare_interpolation", "main"]
 
 METHODS = ("cross_dissolve", "flow", "physlab_diagonal", "physlab")
 #: Extra row of occluded pairs (kind "occluded"): physlab without the occlusion layers.
@@ -466,6 +479,382 @@ def animated_drawing_inbetween(name, motion=None, t0=None, t1=None, n_frames=11,
             "seconds": time.perf_counter() - tic}
 
 
+# ----------------------------------------------------------------------------- interpolation
+#: Where the true skeletal animation between two keys comes from (:func:`interpolation_pairs`).
+INTERPOLATION_SOURCES = ("procedural", "mocap", "animated_drawings")
+#: Bandai-Namco clips (``dataset-1_<content>_normal_001.bvh``; CC BY-NC 4.0, © 2022 Bandai
+#: Namco Research Inc.) that drive the procedural character for the ``"mocap"`` source.
+MOCAP_CLIPS = ("walk", "kick", "punch", "slash", "byebye", "bow", "call", "dance-short")
+#: Procedural character joint → (proximal, distal) Bandai-Namco joint whose projected segment
+#: orients the bone into it (:func:`~physlab.inbetween.retarget.bvh_to_skeletons`); clavicles
+#: and hip bones keep their rest angle relative to the trunk.
+CHARACTER_BANDAI_MAPPING = {
+    "chest": ("Hips", "Chest"), "neck": ("Chest", "Neck"), "head_top": ("Head", "Head_End"),
+    **{f"{side}_{joint}": (f"{a}_{s}", f"{b}_{s}") for side, s in (("left", "L"), ("right", "R"))
+       for joint, a, b in (("elbow", "UpperArm", "LowerArm"), ("hand", "LowerArm", "Hand"),
+                           ("knee", "UpperLeg", "LowerLeg"), ("foot", "LowerLeg", "Foot"))}}
+#: at most this many key pairs (windows) per clip or drawing, spread evenly over the motion
+MAX_WINDOWS = 40
+#: reference rows of the interpolation table beside the methods: the in-between driven by the
+#: true skeletal animation (``animation=``), and the cross-dissolve of the keys
+INTERPOLATION_REFERENCES = ("true_animation", "cross_dissolve")
+
+
+class InterpolationPair(NamedTuple):
+    """Two key skeletons and the true skeletal animation between them.
+
+    ``truth`` : list of n Skeletons at ``t = linspace(0, 1, n)``, the keys at both ends.
+    ``images`` : None, or a function ``() -> (key0, key1, middle)`` of the two key drawings
+    and the true drawing at t = ½ (RGBA images of one size), for the PSNR of in-betweens.
+    """
+
+    name: str
+    source: str
+    truth: list
+    images: object = None
+
+
+def _bandai_motion(content):
+    """The Bandai-Namco clip ``dataset-1_<content>_normal_001`` without its ``joint_Root``
+    (fixed at the origin in these files), so that the Hips carry the root motion."""
+    from physlab.motion.bvh import BVHMotion, read_bvh
+    from physlab.motion.dataset import bandai_namco_dir
+
+    m = read_bvh(bandai_namco_dir() / "dataset" / "Bandai-Namco-Research-Motiondataset-1"
+                 / "data" / f"dataset-1_{content}_normal_001.bvh")
+    k = len(m.channels[0])
+    return BVHMotion(m.names[1:], m.parents[1:] - 1, m.offsets[1:], m.channels[1:],
+                     m.frame_time, m.motion[:, k:])
+
+
+def _window_starts(first, last, span, anchor=None):
+    """Start frames of windows ``[f, f + span]`` inside ``[first, last]``, every ``span / 2``
+    (through ``anchor`` when given): at most :data:`MAX_WINDOWS` spread evenly, plus
+    ``anchor``."""
+    a = first if anchor is None else anchor
+    k = np.arange(np.ceil((first - a) / (span / 2)), np.floor((last - span - a) / (span / 2)) + 1)
+    starts = a + k * span / 2
+    if len(starts) > MAX_WINDOWS:
+        starts = starts[np.round(np.linspace(0, len(starts) - 1, MAX_WINDOWS)).astype(int)]
+    return starts if anchor is None else np.union1d(starts, [anchor])
+
+
+def _posed_windows(bvh, skeleton, starts, span, n, **retarget):
+    """(len(starts), n) Skeletons: ``skeleton`` posed at ``linspace(f, f + span, n)``."""
+    from .retarget import bvh_to_skeletons
+
+    frames = (starts[:, None] + np.linspace(0.0, span, n)).ravel()
+    sks = bvh_to_skeletons(bvh, skeleton, frames=frames, **retarget)
+    return [sks[i * n:(i + 1) * n] for i in range(len(starts))]
+
+
+def _procedural_pairs(size, n):
+    from .characters import inbetween_benchmark
+
+    return [InterpolationPair(p.name, "procedural", p.animation(n),
+                              lambda p=p: (*p.keyframes(), p.ground_truth(0.5)))
+            for p in inbetween_benchmark(size)]
+
+
+def _centred(truth, size, margin):
+    """``truth`` translated so the joints' bounding box is centred in the image, or None when
+    it does not fit ``margin`` px inside the image."""
+    xy = np.concatenate([s.xy for s in truth])
+    lo, hi = xy.min(axis=0), xy.max(axis=0)
+    if np.any(hi - lo > size - 1 - 2 * margin):
+        return None
+    shift = (size - 1) / 2 - (lo + hi) / 2
+    return [s.with_xy(s.xy + shift) for s in truth]
+
+
+def _image_window(windows, size):
+    """Index of the window a clip shows as images: among the windows that fit the image and
+    whose keys differ at least as much as the clip's median window (largest joint move), the
+    one whose poses overlap least (:func:`~physlab.inbetween.characters.part_overlaps`
+    pixels: real motion puts hands on the body and crosses the legs, which a single-sheet
+    template cannot separate). Returns ``(index, centred skeletons)`` or ``(None, None)``."""
+    from .characters import part_overlaps
+
+    move = np.array([np.linalg.norm(w[-1].xy - w[0].xy, axis=1).max() for w in windows])
+    best, shown, least = None, None, np.inf
+    for i in np.flatnonzero(move >= np.median(move)):
+        moved = _centred(windows[i], size, margin=0.08 * size)
+        if moved is None:
+            continue
+        overlap = sum(k for s in moved for *_, k in part_overlaps(s, size))
+        if overlap < least:
+            best, shown, least = int(i), moved, overlap
+    return best, shown
+
+
+def _mocap_pairs(size, n, gap):
+    """Windows of :data:`MOCAP_CLIPS` on the procedural character (front/side views by PCA
+    of the limbs' motion, ``view="auto"``); one window per clip (:func:`_image_window`) also
+    gets images (:func:`~physlab.inbetween.characters.render_character`)."""
+    from .characters import CHARACTER_STYLES, character_skeleton, render_character
+
+    rest = character_skeleton(size)
+    out = []
+    for c, content in enumerate(MOCAP_CLIPS):
+        bvh = _bandai_motion(content)
+        span = gap * bvh.fps
+        starts = _window_starts(0.0, bvh.n_frames - 1, span)
+        windows = _posed_windows(bvh, rest, starts, span, n, mapping=CHARACTER_BANDAI_MAPPING,
+                                 view="auto")
+        shown, centred = _image_window(windows, size)
+        if shown is not None:
+            windows[shown] = centred
+        style = CHARACTER_STYLES[c % len(CHARACTER_STYLES)]
+
+        def images(truth, style=style, seed=c):
+            return (render_character(truth[0], style, size, seed),
+                    render_character(truth[-1], style, size, seed),
+                    render_character(truth[len(truth) // 2], style, size, seed))
+
+        for i, (f0, truth) in enumerate(zip(starts, windows)):
+            out.append(InterpolationPair(f"{content}@{f0:.0f}", "mocap", truth,
+                                         partial(images, truth) if i == shown else None))
+    return out
+
+
+def _scaled_drawing(name, size, pad=0.25):
+    """An AnimatedDrawings character padded by ``pad`` of its size and scaled to fit
+    ``size`` px: ``(image (h, w, 4) uint8, mask (h, w) bool, Skeleton)``."""
+    from PIL import Image
+
+    from ..datasets import animated_drawing
+    from .skeleton import Skeleton
+
+    d = animated_drawing(name)
+    H, W = d.image.shape[:2]
+    p = int(round(pad * max(H, W)))
+    img = np.pad(d.image, ((p, p), (p, p), (0, 0)))
+    mask = np.pad(d.notes["mask"], p)
+    s = size / max(img.shape[:2])
+    wh = (max(1, round(img.shape[1] * s)), max(1, round(img.shape[0] * s)))
+    small = np.asarray(Image.fromarray(img).resize(wh, Image.LANCZOS))
+    m = np.asarray(Image.fromarray(mask.astype(np.uint8) * 255).resize(wh, Image.BILINEAR)) > 127
+    sk = Skeleton(**d.notes["skeleton"])
+    return small, m, sk.with_xy((sk.xy + p + 0.5) * s - 0.5)  # pixel centres scale about -½
+
+
+def _animated_drawing_pairs(size, n):
+    """Windows as long as each :data:`AD_SHOTS` shot over the whole motion, every half shot,
+    through the shot; the shot itself gets images (the drawing posed by :func:`pose_drawing`
+    at the keys and at the true middle pose)."""
+    from .retarget import ANIMATED_DRAWINGS_START_FRAMES, load_motion
+    from .template import build_template
+
+    out = []
+    for name, (motion, t0, t1) in AD_SHOTS.items():
+        img, mask, sk = _scaled_drawing(name, size)
+        bvh = load_motion(motion)
+        ref = ANIMATED_DRAWINGS_START_FRAMES[motion]
+        span, shot = (t1 - t0) * bvh.fps, t0 * bvh.fps
+        starts = _window_starts(float(ref), bvh.n_frames - 1, span, anchor=shot)
+        windows = _posed_windows(bvh, sk, starts, span, n, reference_frame=ref)
+
+        def images(truth, img=img, mask=mask, sk=sk):
+            rest = build_template(img, sk, mask=mask)
+            return tuple(pose_drawing(rest, truth[i])[0] for i in (0, -1, len(truth) // 2))
+
+        for f0, truth in zip(starts, windows):
+            out.append(InterpolationPair(f"{name}/{motion}@{f0:.0f}", "animated_drawings", truth,
+                                         partial(images, truth) if f0 == shot else None))
+    return out
+
+
+def interpolation_pairs(sources=INTERPOLATION_SOURCES, size=256, n_frames=7, gap=0.4):
+    """Key pairs whose true in-between skeletons are known, to compare interpolation schemes.
+
+    Sources (:data:`INTERPOLATION_SOURCES`):
+
+    * ``"procedural"`` — :func:`~physlab.inbetween.characters.inbetween_benchmark`; its truth
+      *is* ``interpolate(..., method="local_angles")``, so that method is exact here;
+    * ``"mocap"`` — the procedural character posed by the Bandai-Namco clips
+      :data:`MOCAP_CLIPS` (:data:`CHARACTER_BANDAI_MAPPING`, root moved with the Hips),
+      key pairs ``gap`` seconds apart every ``gap / 2``; one image pair per clip;
+    * ``"animated_drawings"`` — the AnimatedDrawings characters scaled to ``size`` posed by
+      their :data:`AD_SHOTS` motions (:func:`~physlab.inbetween.retarget.bvh_to_skeletons`),
+      key pairs as long as the shot every half shot; the shot itself is the image pair.
+
+    Both real sources need ``../shared/data`` (see :func:`physlab.datasets.external_data_dir`).
+
+    Parameters
+    ----------
+    sources : iterable of names in :data:`INTERPOLATION_SOURCES`.
+    size : int, image size in px (the procedural figure is 70 % of it tall; a drawing with
+        its padding fills it).
+    n_frames : odd int ≥ 3, skeletons per pair including both keys (the middle one is t = ½).
+    gap : float > 0, seconds between the keys of the ``"mocap"`` pairs.
+
+    Returns
+    -------
+    list of :class:`InterpolationPair`.
+    """
+    bad = [s for s in sources if s not in INTERPOLATION_SOURCES]
+    if bad:
+        raise ValueError(f"unknown interpolation source(s) {bad}; choose from "
+                         f"{INTERPOLATION_SOURCES}")
+    if isinstance(n_frames, bool) or not isinstance(n_frames, (int, np.integer)) \
+            or n_frames < 3 or n_frames % 2 == 0:
+        raise ValueError(f"n_frames must be an odd int ≥ 3 (the middle frame is t = 0.5), got "
+                         f"{n_frames!r}")
+    if not gap > 0:
+        raise ValueError(f"gap must be > 0 seconds, got {gap}")
+    make = {"procedural": lambda: _procedural_pairs(size, n_frames),
+            "mocap": lambda: _mocap_pairs(size, n_frames, gap),
+            "animated_drawings": lambda: _animated_drawing_pairs(size, n_frames)}
+    return [p for s in sources for p in make[s]()]
+
+
+def interpolation_errors(pairs, methods=INTERPOLATION_METHODS):
+    """Joint errors (px) of every interpolation method against the true skeletons.
+
+    Returns
+    -------
+    list of dicts (pair, source, method, ``mid_mean`` / ``mid_worst``: mean and largest joint
+    distance at t = ½; ``all_mean``: mean over the in-betweens and joints; ``all_worst``:
+    largest joint distance per in-between, averaged over the in-betweens).
+    """
+    rows = []
+    for pair in pairs:
+        truth = pair.truth
+        n = len(truth)
+        X = np.stack([s.xy for s in truth])                              # (n, J, 2)
+        for m in methods:
+            Y = np.stack([s.xy for s in interpolate(truth[0], truth[-1],
+                                                     np.linspace(0.0, 1.0, n), method=m)])
+            e = np.linalg.norm(Y - X, axis=-1)[1:-1]                       # (n - 2, J)
+            mid = e[n // 2 - 1]
+            rows.append({"pair": pair.name, "source": pair.source, "method": m,
+                         "mid_mean": float(mid.mean()), "mid_worst": float(mid.max()),
+                         "all_mean": float(e.mean()), "all_worst": float(e.max(axis=1).mean())})
+    return rows
+
+
+def interpolation_psnr(pairs, methods=INTERPOLATION_METHODS, progress=True, interpolator=None,
+                       **options):
+    """PSNR (dB) at t = ½ of :func:`~physlab.inbetween.pipeline.inbetween` driven by each
+    method's animation, on the pairs that have images.
+
+    Also the references :data:`INTERPOLATION_REFERENCES`: the true animation passed as
+    ``animation=``, and the cross-dissolve.
+
+    Parameters
+    ----------
+    pairs : :class:`InterpolationPair` s (those without ``images`` are skipped).
+    methods : names in :data:`INTERPOLATION_METHODS`.
+    progress : bool, a tqdm bar over the pairs.
+    interpolator : FrameInterpolator shared by all runs (default ``FlowInterpolator()``).
+    options : passed to ``inbetween``.
+
+    Returns
+    -------
+    list of dicts (pair, source, method, psnr, seconds).
+    """
+    import warnings
+
+    pairs = [p for p in pairs if p.images is not None]
+    interp = FlowInterpolator() if interpolator is None else interpolator
+    it = pairs
+    if progress:
+        from tqdm.auto import tqdm
+
+        it = tqdm(pairs, desc="in-betweens")
+    rows = []
+    for pair in it:
+        k0, k1, gt = pair.images()
+        truth, n = pair.truth, len(pair.truth)
+        anims = {m: interpolate(truth[0], truth[-1], np.linspace(0.0, 1.0, n), method=m)
+                 for m in methods}
+        anims["true_animation"] = truth
+        for m, anim in anims.items():
+            tic = time.perf_counter()
+            with warnings.catch_warnings():  # limb-overlap warnings: every method alike
+                warnings.simplefilter("ignore")
+                res = inbetween(k0, k1, truth[0], truth[-1], n, animation=anim,
+                                interpolator=interp, **options)
+            rows.append({"pair": pair.name, "source": pair.source, "method": m,
+                         "psnr": metrics.psnr(res.frames[n // 2], gt),
+                         "seconds": time.perf_counter() - tic})
+        mid = cross_dissolve(as_rgba_float(k0, "key0"), as_rgba_float(k1, "key1"), n)[n // 2]
+        rows.append({"pair": pair.name, "source": pair.source, "method": "cross_dissolve",
+                     "psnr": metrics.psnr(mid, gt), "seconds": 0.0})
+    return rows
+
+
+def interpolation_table(errors, psnr=()):
+    """Plain-text table of :func:`interpolation_errors` and :func:`interpolation_psnr` rows:
+    per source and method, the pair count and mean joint errors (px), and the mean PSNR at
+    t = ½ over the image pairs; the best method per source and column in *stars* (reference
+    rows :data:`INTERPOLATION_REFERENCES` are not starred)."""
+    cols = ("mid_mean", "mid_worst", "all_mean", "all_worst")
+    head = ["source", "method", "pairs", "mid mean px", "mid worst px", "all mean px",
+            "all worst px", "PSNR mid dB (pairs)"]
+    lines = [" | ".join(head), " | ".join("---" for _ in head)]
+    rows = list(errors) + list(psnr)
+    for src in dict.fromkeys(r["source"] for r in rows):
+        mine = [r for r in rows if r["source"] == src]
+        methods = [m for m in dict.fromkeys(r["method"] for r in mine)
+                   if m not in INTERPOLATION_REFERENCES]
+        refs = [m for m in INTERPOLATION_REFERENCES if any(r["method"] == m for r in mine)]
+        err = {m: [r for r in errors if r["source"] == src and r["method"] == m]
+               for m in methods}
+        cell = {(m, c): f"{np.mean([r[c] for r in err[m]]):.2f}"
+                for m in methods if err[m] for c in cols}
+        ps = {m: [r["psnr"] for r in psnr if r["source"] == src and r["method"] == m]
+              for m in methods + refs}
+        cell.update({(m, "psnr"): f"{np.mean(v):.2f}" for m, v in ps.items() if v})
+        best = {}
+        for c in cols + ("psnr",):
+            vals = [cell[m, c] for m in methods if (m, c) in cell]
+            if vals:
+                best[c] = (max if c == "psnr" else min)(vals, key=float)
+        for m in methods + refs:
+            out = [src, m, str(len(err[m])) if err.get(m) else "—"]
+            for c in cols + ("psnr",):
+                v = cell.get((m, c))
+                if v is None:
+                    v = "0" if m == "true_animation" and c != "psnr" else "—"
+                elif m in methods and v == best[c]:
+                    v = f"*{v}*"
+                out.append(f"{v} ({len(ps[m])})" if c == "psnr" and ps[m] else v)
+            lines.append(" | ".join(out))
+    return "\n".join(lines)
+
+
+def compare_interpolation(sources=INTERPOLATION_SOURCES, size=256, n_frames=7, gap=0.4,
+                          psnr=True, progress=True, methods=INTERPOLATION_METHODS, **options):
+    """Compare the skeleton interpolation schemes of :func:`interpolate` (issue 15, point 3).
+
+    Builds :func:`interpolation_pairs`, scores every method's skeletons
+    (:func:`interpolation_errors`) and, with ``psnr``, the in-betweens they drive
+    (:func:`interpolation_psnr`). Sources that need the external data folder are skipped, with
+    the reason, when it is missing. Joint errors take seconds; the 28 image pairs × 8 rows
+    of in-betweens about 10 minutes on a 2-core machine at 256 px (a few mocap pairs whose
+    limbs cross the body take 20–45 s per in-between).
+
+    Returns
+    -------
+    dict with "errors" and "psnr" (row lists), "table" (:func:`interpolation_table`),
+    "skipped" (source → reason).
+    """
+    from ..datasets import external_data_dir
+
+    skipped = {}
+    if external_data_dir() is None:
+        for s in sources:
+            if s != "procedural":
+                skipped[s] = ("external data folder not found (set PHYSLAB_EXTERNAL_DATA or "
+                              "provide ../shared/data)")
+    pairs = interpolation_pairs([s for s in sources if s not in skipped], size, n_frames, gap)
+    errors = interpolation_errors(pairs, methods)
+    ps = interpolation_psnr(pairs, methods, progress=progress, **options) if psnr else []
+    return {"errors": errors, "psnr": ps, "table": interpolation_table(errors, ps),
+            "skipped": skipped}
+
+
 def _pairs_arg(text):
     """``--pairs``: a count N (the first N procedural pairs) or a pair folder (Path)."""
     import argparse
@@ -492,6 +881,7 @@ def _parser():
                "  %(prog)s --real --skip-benchmark --out runs/real    # needs ../shared/data\n"
                "  %(prog)s --pairs my_pair/ --out runs/my_pair          # one's own triplet\n"
                "  %(prog)s --occluded --size 256 --out runs/occluded     # limbs crossing\n"
+               "  %(prog)s --interpolation                  # skeleton interpolation methods\n"
                "\na --pairs DIR folder:\n" + FOLDER_FORMAT.replace("%", "%%"))
     p.add_argument("--size", type=int, default=None,
                    help="image size of the procedural pairs in px (default 512)")
@@ -511,6 +901,18 @@ def _parser():
                         "motions (needs ../shared/data); contact sheets go to --out")
     p.add_argument("--skip-benchmark", action="store_true",
                    help="skip the procedural ground-truth benchmark")
+    p.add_argument("--interpolation", action="store_true",
+                   help="compare the skeleton interpolation methods between keys "
+                        f"({', '.join(INTERPOLATION_METHODS)}) against true in-between "
+                        "poses: joint errors and the PSNR of the in-betweens they drive "
+                        "(default --size 256 --frames 7; mocap and AnimatedDrawings pairs need "
+                        "../shared/data)")
+    p.add_argument("--gap", type=float, default=0.4,
+                   help="--interpolation: seconds between the keys of the mocap pairs "
+                        "(default 0.4)")
+    p.add_argument("--no-psnr", action="store_true",
+                   help="--interpolation: joint errors only, no in-betweens (seconds "
+                        "instead of ~10 minutes)")
     p.add_argument("--occluded", action="store_true",
                    help="evaluate the occlusion benchmark instead (limbs crossing the body; "
                         "layered templates from the true occlusions, plus physlab as a single "
@@ -549,6 +951,30 @@ def _main_folder(args):
     print("wrote " + ", ".join(str(f) for f in r["files"]))
 
 
+def _main_interpolation(args):
+    """``--interpolation``: print (and with ``--out`` write) the interpolation table."""
+    import json
+
+    from .._io import atomic_write_text
+
+    r = compare_interpolation(size=256 if args.size is None else args.size,
+                              n_frames=7 if args.frames is None else args.frames, gap=args.gap,
+                              psnr=not args.no_psnr, progress=not args.no_progress)
+    for src, why in r["skipped"].items():
+        print(f"skipped {src}: {why}")
+    print(r["table"])
+    print("\nJoint errors (px) of the interpolated skeletons against the true ones: at t = 0.5 "
+          "(mean over joints, worst joint) and over all in-betweens; PSNR of the physlab "
+          "in-between at t = 0.5. mocap: Bandai-Namco clips (CC BY-NC 4.0, © 2022 Bandai Namco "
+          "Research Inc.); animated_drawings: AnimatedDrawings (MIT, © Meta Platforms, Inc.).")
+    if args.out is not None:
+        atomic_write_text(args.out / "interpolation.md", r["table"] + "\n")
+        atomic_write_text(args.out / "interpolation_rows.json",
+                          json.dumps({"errors": r["errors"], "psnr": r["psnr"]}, indent=1))
+        print(f"wrote {args.out / 'interpolation.md'} and interpolation_rows.json")
+    return 0
+
+
 def main(argv=None):
     """Command-line entry point; prints the table(s) and returns 0."""
     args = _parser().parse_args(argv)
@@ -558,6 +984,8 @@ def main(argv=None):
 
     if args.out is not None:
         args.out.mkdir(parents=True, exist_ok=True)
+    if args.interpolation:
+        return _main_interpolation(args)
     n_frames = DEFAULT_FRAMES if args.frames is None else args.frames
     if isinstance(args.pairs, Path):
         _main_folder(args)

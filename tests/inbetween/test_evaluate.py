@@ -173,3 +173,64 @@ def test_physlab_evaluate_pairs_bad_folder_is_one_line(tmp_path, capsys, spoil, 
     assert status == 2 and len(err) == 1 and err[0].startswith("physlab: error: "), err
     assert re.search(match, err[0]), err[0]
     assert not (tmp_path / "p" / "evaluation").exists()
+
+
+# ------------------------------------------------------------------ skeleton interpolation
+def test_interpolation_errors_on_the_procedural_benchmark():
+    """Its truth is the local-angle blend: that method is exact, positions are not."""
+    pairs = evaluate.interpolation_pairs(("procedural",), size=128, n_frames=5)
+    assert len(pairs) == 14 and all(len(p.truth) == 5 for p in pairs)
+    rows = evaluate.interpolation_errors(pairs, methods=("local_angles", "positions"))
+    err = {(r["pair"], r["method"]): r for r in rows}
+    assert all(err[p.name, "local_angles"]["all_worst"] < 1e-9 for p in pairs)
+    swing = err["arm_swing", "positions"]   # the 115° arm swing: the chord cuts the arc
+    assert swing["mid_worst"] > 5 and swing["mid_mean"] <= swing["mid_worst"]
+    table = evaluate.interpolation_table(rows)
+    assert table.count("\n") == 1 + 2 and "*0.00*" in table
+
+
+def test_interpolation_psnr_true_animation_equals_its_method():
+    pair = evaluate.interpolation_pairs(("procedural",), size=128, n_frames=5)[0]
+    rows = evaluate.interpolation_psnr([pair], methods=("local_angles",), progress=False)
+    psnr = {r["method"]: r["psnr"] for r in rows}
+    assert set(psnr) == {"local_angles", *evaluate.INTERPOLATION_REFERENCES}
+    assert psnr["local_angles"] == psnr["true_animation"] > psnr["cross_dissolve"]
+    table = evaluate.interpolation_table([], rows)
+    assert "true_animation" in table and "(1)" in table
+
+
+def test_interpolation_pairs_from_real_motion(real_data):
+    pairs = evaluate.interpolation_pairs(("mocap", "animated_drawings"), size=128, n_frames=5)
+    for src in ("mocap", "animated_drawings"):
+        mine = [p for p in pairs if p.source == src]
+        assert len(mine) > 50
+        shown = [p for p in mine if p.images is not None]
+        assert 1 <= len(shown) <= (len(evaluate.MOCAP_CLIPS) if src == "mocap"
+                                   else len(evaluate.AD_SHOTS))
+    # the true middle pose is not the local-angle blend of the keys
+    rows = evaluate.interpolation_errors(pairs[:20], methods=("local_angles",))
+    assert np.mean([r["mid_worst"] for r in rows]) > 1.0
+    # an AnimatedDrawings shot renders keys and the true middle drawing at one size
+    ad = next(p for p in pairs if p.source == "animated_drawings" and p.images is not None)
+    k0, k1, mid = ad.images()
+    assert k0.shape == k1.shape == mid.shape and max(k0.shape[:2]) == 128
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    (dict(sources=("cartoons",)), "unknown interpolation source"),
+    (dict(n_frames=6), "odd"),
+    (dict(gap=0.0), "gap"),
+])
+def test_interpolation_pairs_bad_arguments(kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        evaluate.interpolation_pairs(**kwargs)
+
+
+def test_cli_interpolation_table(tmp_path, capsys):
+    assert evaluate.main(["--interpolation", "--no-psnr", "--size", "128", "--frames", "5",
+                          "--no-progress", "--out", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert "procedural | local_angles | 14" in out and "mid worst px" in out
+    rows = json.loads((tmp_path / "interpolation_rows.json").read_text())
+    assert rows["psnr"] == [] and {r["method"] for r in rows["errors"]} == \
+        set(evaluate.INTERPOLATION_METHODS)
