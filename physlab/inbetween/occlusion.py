@@ -277,15 +277,22 @@ def count_valid_assignments(n, k):
 
 
 # ---------------------------------------------------------------------- regions, meshing
+def _project_on_segments(Q, A, B):
+    """Nearest points of segments ``A[j] → B[j]`` (k, 2) to points ``Q`` (m, 2): returns
+    ``(proj (m, k, 2), dist (m, k))``."""
+    Q = np.atleast_2d(np.asarray(Q, dtype=float))
+    AB = B - A
+    t = np.clip(np.einsum("mkd,kd->mk", Q[:, None] - A[None], AB)
+                / np.maximum(np.einsum("kd,kd->k", AB, AB), 1e-12), 0.0, 1.0)
+    proj = A[None] + t[..., None] * AB[None]
+    return proj, np.linalg.norm(proj - Q[:, None], axis=2)
+
+
 def _insert_on_outline(P, q):
     """Insert the projection of ``q`` onto polygon ``P``'s nearest edge as a vertex (unless a
     vertex is within 1 px); returns (P', index of that vertex, distance from q)."""
-    A, B = P, np.roll(P, -1, axis=0)
-    AB = B - A
-    t = np.clip(np.einsum("ij,ij->i", q - A, AB) / np.maximum(np.einsum("ij,ij->i", AB, AB),
-                                                              1e-12), 0.0, 1.0)
-    proj = A + t[:, None] * AB
-    d = np.linalg.norm(proj - q, axis=1)
+    proj, d = _project_on_segments(q, P, np.roll(P, -1, axis=0))
+    proj, d = proj[0], d[0]
     e = int(np.argmin(d))
     dv = np.linalg.norm(P - proj[e], axis=1)  # an existing vertex at the projection: reuse it
     if dv.min() <= 1.0:
@@ -398,7 +405,7 @@ class OcclusionRegion:
         return (self.b != front_attached) & ~self.non_manifold
 
 
-def _loop_of(tris_in, n_vertices):
+def _loop_of(tris_in):
     """Ordered outline (longest boundary loop) of a set of triangles."""
     E = np.concatenate([tris_in[:, [0, 1]], tris_in[:, [1, 2]], tris_in[:, [2, 0]]])
     key = np.sort(E, axis=1)
@@ -671,12 +678,7 @@ def build_layered_template(image, skeleton, occlusions=(), mask=None, mask_predi
     ij = np.clip(np.round(handles[:, ::-1]).astype(int), 0, [H - 1, W - 1])
     ok = dist_in[ij[:, 0], ij[:, 1]] > epsilon + 1.5
     for P in polys:  # keep handles off the region outlines (no slivers)
-        A, B = P, np.roll(P, -1, axis=0)
-        AB = B - A
-        t = np.clip(np.einsum("kij,ij->ki", handles[:, None] - A[None], AB)
-                    / np.maximum(np.einsum("ij,ij->i", AB, AB), 1e-12), 0, 1)
-        d = np.linalg.norm(handles[:, None] - (A[None] + t[..., None] * AB[None]), axis=2).min(1)
-        ok &= d > 2.0
+        ok &= _project_on_segments(handles, P, np.roll(P, -1, axis=0))[1].min(axis=1) > 2.0
     cand = np.flatnonzero(ok)
     if len(cand):
         _, first = np.unique(np.round(handles[cand], 6), axis=0, return_index=True)
@@ -702,7 +704,7 @@ def build_layered_template(image, skeleton, occlusions=(), mask=None, mask_predi
             raise ValueError(f"{name}: occlusions[{r}] holds no triangle of the mesh (too small?)")
         in_any |= inside
         sel = np.flatnonzero(inside)
-        loop = _loop_of(tris[sel], len(X))
+        loop = _loop_of(tris[sel])
         tj_ids = cKDTree(X[loop]).query(tj_pos[r])[1] if len(tj_pos[r]) else np.zeros(0, int)
         # pocket: copies of the region's interior vertices, outline shared
         verts = np.unique(tris[sel])
@@ -830,7 +832,7 @@ def build_layered_template(image, skeleton, occlusions=(), mask=None, mask_predi
     final_mesh = TriMesh(X_f, tris_f)
 
     # ---- depth of layers: BBW weights of the handles × handle depths (Sec. 5.1)
-    weights = _handle_weights(X_f, tris_f, handle_vertices_f, handle_tris, handle_bary)
+    weights = _handle_weights(X_f, tris_f, handle_vertices_f)
     if regions:
         for reg in regions:
             if hdepth is None:
@@ -851,7 +853,7 @@ def build_layered_template(image, skeleton, occlusions=(), mask=None, mask_predi
     texture, inpainted = img, 0.0
     if back.any():
         back_tex, inpainted = _back_texture(
-            img, mask, X_f, tris_f, back, weights, handle_matrix(tris_f, len(X_f)),
+            img, X_f, tris_f, back, handle_matrix(tris_f, len(X_f)),
             target_skeletons, other_image, other_occlusions, other_mask, mu, inpainter,
             [o.mask_array((H, W)) for o in occlusions])
         texture = np.concatenate([img, back_tex], axis=0)
@@ -913,10 +915,10 @@ def _deformation_energy(X, tris, B, target_skeletons, mu, max_iter=None):
                                 target_skeletons, **opts).energy)
 
 
-def _handle_weights(X, tris, handle_vertices, handle_tris, handle_bary):
+def _handle_weights(X, tris, handle_vertices):
     """(n, K) bounded biharmonic weights of the handles on the (non-manifold) layered mesh
-    (libigl ``bbw``, Jacobson et al. 2011), handles that are not vertices interpolated from
-    their triangle's corners' nearest handle weights."""
+    (libigl ``bbw``, Jacobson et al. 2011); handles that are not vertices get a zero column,
+    handles sharing a vertex share its column."""
     import igl
 
     K = len(handle_vertices)
@@ -949,7 +951,7 @@ def _telea(rgba, hole):
     return res
 
 
-def _back_texture(img, mask, X, tris, back, weights, B, target_skeletons, other_image,
+def _back_texture(img, X, tris, back, B, target_skeletons, other_image,
                   other_occlusions, other_mask, mu, inpainter, own_occ_masks):
     """Texture of the back layers in the keyframe's frame (Sec. 5.1).
 
@@ -1019,12 +1021,9 @@ def limb_overlaps(skeleton, radius=None, skip_adjacent=True):
 def _segment_distance(p0, p1, q0, q1):
     if _segments_cross(p0, p1, q0, q1):
         return 0.0
-
-    def pt_seg(p, a, b):
-        ab = b - a
-        t = np.clip(np.dot(p - a, ab) / max(np.dot(ab, ab), 1e-12), 0, 1)
-        return np.linalg.norm(p - (a + t * ab))
-    return min(pt_seg(p0, q0, q1), pt_seg(p1, q0, q1), pt_seg(q0, p0, p1), pt_seg(q1, p0, p1))
+    d_p = _project_on_segments([p0, p1], q0[None], q1[None])[1]
+    d_q = _project_on_segments([q0, q1], p0[None], p1[None])[1]
+    return float(min(d_p.min(), d_q.min()))
 
 
 def suggest_occlusions(image, skeleton, radius=None, mask=None, predictor=None):
