@@ -45,6 +45,8 @@ import numpy as np
 
 PAPER_SECONDS_PER_CLIP = 0.427   # Sketch2Anim, RTX 4090, with guidance
 TARGET_SECONDS_PER_CLIP = 0.5
+#: Issue 14: seconds for a 3-frame storyboard (generation + 2 blends) on one thread.
+TARGET_SECONDS_PER_STORYBOARD = 5.0
 
 
 def _parser():
@@ -126,6 +128,15 @@ def main(argv=None):
                                                args.repeats),
                         "+ 2D guidance (generate's default)": _time(
                             lambda: gen(text, **drawn, **GUIDED), args.repeats)}
+        # a 3-frame storyboard (issue 14): three clips (guided where conditioned) + 2 blends
+        from physlab.motion.storyboard import Storyboard, StoryboardFrame, animate_storyboard
+
+        board = Storyboard([StoryboardFrame(text, keypose_3d=keypose, keypose_at="last",
+                                            trajectories_3d=traj),
+                            StoryboardFrame(text), StoryboardFrame(text, keypose_3d=keypose)])
+        t_board = {m: _time(lambda: animate_storyboard(board, checkpoint=path, steps=steps,
+                                                       method=m), 1)
+                   for m in ("inversion", "linear")}
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024  # KiB -> MiB on Linux
     print(f"motion generator: training on {args.threads} thread(s), sampling on "
           f"{args.sample_threads}; model d_model={gen.config.d_model}, {gen.config.n_layers} blocks")
@@ -146,6 +157,9 @@ def main(argv=None):
               f"{PAPER_SECONDS_PER_CLIP} s on an RTX 4090)")
     print(f"reference: networks-only clip, DDPM {ddpm_steps} | {t_ref:.3f} s (DDIM/DDPM = "
           f"{t_ctrl / t_ref:.3f})")
+    for m, t in t_board.items():
+        print(f"3-frame storyboard, generation + 2 {m} blends (1 run) | {t:.3f} s "
+              f"(target <= {TARGET_SECONDS_PER_STORYBOARD} s)")
     print(f"checkpoints base / control (resumable, with optimizer) | {sizes['base']:.1f} / "
           f"{sizes['control']:.1f} MiB")
     print(f"peak resident memory | {peak:.0f} MiB")
@@ -156,7 +170,7 @@ def main(argv=None):
     out.update(base=base, control=control, seconds_text=t_text, seconds_control=t_ctrl,
                seconds_guided=t_guided, seconds_variants=t_variants,
                seconds_reference=t_ref, seconds_sketch=t_sketch, peak_mib=peak,
-               checkpoint_mib=sizes)
+               checkpoint_mib=sizes, seconds_storyboard=t_board)
     return out
 
 

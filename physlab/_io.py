@@ -69,3 +69,23 @@ def atomic_write(path, write, suffix=".tmp"):
 def atomic_write_text(path, text, encoding="utf-8"):
     """Write ``text`` to ``path`` atomically (see :func:`atomic_write`)."""
     return atomic_write(path, lambda tmp: Path(tmp).write_text(text, encoding=encoding))
+
+
+def read_json(path):
+    """The JSON value in ``path`` (UTF-8); ValueError naming the file and line if it is not
+    valid JSON, FileNotFoundError if it is missing."""
+    import json
+    from pathlib import Path
+
+    path = Path(path)
+    try:
+        return json.loads(path.read_text(encoding="utf-8"))
+    except json.JSONDecodeError as e:
+        raise ValueError(f"{path}: not valid JSON (line {e.lineno}: {e.msg})") from None
+
+
+def write_json(path, value):
+    """Write ``value`` as indented JSON, atomically (a failed write keeps the old file)."""
+    import json
+
+    return atomic_write_text(path, json.dumps(value, indent=1) + "\n")

@@ -17,6 +17,10 @@ motion generator.
   its embedding cache (loads sentence-transformers only when encoding);
 * :mod:`.diffusion` — the noise scheduler (DDPM / DDIM, classifier-free guidance); imports
   torch, so it is not imported here;
+* :mod:`.transitions` — model-free transitions between clips (linear, slerp, SQUAD);
+* :mod:`.blend` — placing clips one after another and joining them, Sketch2Anim's
+  DDIM-inversion blending (supp. D) and the baselines; :mod:`.storyboard` —
+  :class:`Storyboard` frames to one animation (:func:`storyboard_to_motion`);
 * :mod:`.sampling` — :func:`generate` and :class:`Generator` (trained checkpoint -> motion);
   ``from physlab.motion import generate`` gives the *function* (DESIGN.md), loaded on first
   use so that importing this package never imports torch.
@@ -29,6 +33,7 @@ from .bvh import (BANDAI_NAMCO_MAPPING, CMU_MAPPING, CMU_MAX_MAPPING, CMU_SCALE,
 from . import metrics, text
 from .camera import Camera
 from .export import joints_to_bvh
+from .storyboard import Storyboard, StoryboardAnimation, StoryboardFrame, animate_storyboard, storyboard_to_motion
 from .dataset import (TRAJECTORY_JOINT_NAMES, TRAJECTORY_JOINTS, Condition, MotionClip, Windows,
                       action_text, condition_from_window, load_clips, make_windows,
                       split_by_take)
@@ -44,7 +49,8 @@ __all__ = [
     "FEATURE_DIM", "FeatureStats", "canonicalize", "joints_to_features", "features_to_joints",
     "TRAJECTORY_JOINTS", "TRAJECTORY_JOINT_NAMES", "MotionClip", "Windows", "Condition",
     "load_clips", "action_text", "make_windows", "condition_from_window", "split_by_take",
-    "metrics", "text", "joints_to_bvh", "Camera",
+    "metrics", "text", "joints_to_bvh", "Camera", "Storyboard", "StoryboardFrame",
+    "StoryboardAnimation", "storyboard_to_motion", "animate_storyboard",
     "generate", "Generator", "load_generator", "build_condition", "DEFAULT_CHECKPOINT",
 ]
 

@@ -536,6 +536,90 @@ class NoiseScheduler:
             x_prev = x_prev + sigma * self._noise_like(x_t, generator, noise)    # Eq. (12)
         return StepOutput(x_prev, x0)
 
+    def ddim_invert_step(self, model_output: torch.Tensor, t, t_prev,
+                         x_prev: torch.Tensor) -> StepOutput:
+        """One deterministic DDIM *inversion* step x_{t_prev} → x_t, the mirror of
+        :meth:`ddim_step` (Song et al. 2021 Sec. 4.3, ODE form; Sketch2Anim supp. Eq. (17))::
+
+            x_t = √ᾱ_t x̂₀ + √(1 − ᾱ_t) ε̂
+
+        where (x̂₀, ε̂) are read from ``model_output`` = the network at ``(x_{t_prev}, t)``
+        (the usual approximation x_t ≈ x_{t_prev} inside the network) and converted at the
+        level ``t_prev`` that ``x_prev`` lives on: ε-prediction ``x̂₀ = (x_prev −
+        √(1−ᾱ_prev) ε̂)/√ᾱ_prev`` (which makes this exactly Eq. (17),
+        ``x_t = √(ᾱ_t/ᾱ_prev) x_prev + (√(1−ᾱ_t) − √(ᾱ_t/ᾱ_prev)√(1−ᾱ_prev)) ε̂``);
+        x̂₀-prediction ``ε̂ = (x_prev − √ᾱ_prev x̂₀)/√(1−ᾱ_prev)``; v-prediction
+        (Salimans & Ho App. D) at ``t_prev``. From the clean level (``t_prev = -1`` with
+        ``set_alpha_to_one``, where 1 − ᾱ_prev = 0) an x̂₀ / v model's ε̂ is read at level t.
+
+        model_output : (B, ...); t : int or (B,) int tensor; t_prev : same, ``-1 <= t_prev < t``
+        x_prev : (B, ...), the sample at level ``t_prev`` (the clean x₀ for ``t_prev = -1``).
+        Returns :class:`StepOutput` ``(x_t, x0)`` (the field named ``x_prev`` holds x_t).
+        """
+        t = self._timesteps(t)
+        t_prev = self._timesteps(t_prev, "t_prev", allow_final=True)
+        if bool((t_prev >= t).any()):
+            raise ValueError(f"t_prev must be smaller than t, got t={t.tolist()}, "
+                             f"t_prev={t_prev.tolist()}")
+        _check_finite(x_prev, "x_prev")
+        _check_finite(model_output, "model_output")
+        _check_same_shape(model_output, x_prev, "model_output", "x_prev")
+        a_t = self._per_sample(self.alphas_cumprod[t], x_prev)
+        a_p = self._per_sample(self._alpha_bar_prev(t_prev, self._final_alpha_cumprod()),
+                               x_prev)
+        kind = self.config.prediction_type
+        if kind == "epsilon":
+            eps = model_output
+            x0 = (x_prev - (1 - a_p).sqrt() * eps) / a_p.sqrt()
+        else:
+            if kind == "sample":
+                x0 = model_output
+            else:                                    # v at level t_prev
+                x0 = a_p.sqrt() * x_prev - (1 - a_p).sqrt() * model_output
+            clean = (1 - a_p) < 1e-12                # x_prev is x₀: read ε̂ at level t
+            a_e = torch.where(clean, a_t, a_p)
+            eps = (x_prev - a_e.sqrt() * x0) / (1 - a_e).sqrt()
+        x0 = self._clip(x0)
+        return StepOutput(a_t.sqrt() * x0 + (1 - a_t).sqrt() * eps, x0)          # Eq. (17)
+
+    def invert(self, model_fn: Callable[[torch.Tensor, torch.Tensor, Any], torch.Tensor],
+               x0: torch.Tensor, steps: int = 50, cond: Any = None,
+               progress: bool = False, fixed_point: int = 0) -> torch.Tensor:
+        """Deterministic DDIM inversion of clean samples ``x0`` (B, ...) to the noise level of
+        the first sampling step: :meth:`ddim_invert_step` along the timesteps of
+        :meth:`set_timesteps` ``(steps)`` in ascending order (Sketch2Anim supp. D, z_T^Inv).
+        ``model_fn(x, t, cond)`` as in :meth:`sample` (no classifier-free guidance: inversion
+        with guidance drifts). Sampling the result with :meth:`sample` ``(steps, method=
+        "ddim", x_T=...)`` and the same network returns ≈ x0, exactly in the limit of many
+        steps for a network that is exact (tests: a Gaussian data model).
+
+        ``fixed_point`` > 0 refines each step by that many fixed-point iterations that
+        evaluate the network at the current estimate of x_t instead of at x_{t_prev}
+        (Pan et al. 2023, "Effective real image editing with accelerated iterative diffusion
+        inversion"): the DDIM step from the returned x_t then lands on x_{t_prev} far more
+        exactly — needed for an x̂₀-predicting network, whose ε̂ at low noise amplifies any
+        error of x̂₀ by 1/√(1 − ᾱ). Returns z (B, ...)."""
+        _check_finite(x0, "x0")
+        timesteps = self.set_timesteps(steps).flip(0)                       # ascending
+        x = x0
+        B = x.shape[0]
+        with torch.no_grad():
+            for i, t in enumerate(tqdm(timesteps.tolist(), disable=not progress,
+                                       desc="DDIM inversion")):
+                t_prev = int(timesteps[i - 1]) if i > 0 else -1
+                t_in = torch.full((B,), t, dtype=torch.int64, device=x.device)
+                x_t = x
+                for _ in range(1 + int(fixed_point)):   # network at x_{t_prev}, then at x_t
+                    out = model_fn(x_t, t_in, cond)
+                    if not isinstance(out, torch.Tensor) or out.shape != x.shape:
+                        raise ValueError(f"model_fn must return a tensor of shape "
+                                         f"{tuple(x.shape)}, got "
+                                         f"{getattr(out, 'shape', type(out).__name__)}")
+                    x_t, _ = self.ddim_invert_step(out, t, t_prev, x)
+                x = x_t
+        self.set_timesteps(steps)                     # leave the sampling order in place
+        return x
+
     # ------------------------------------------------------------------ sampling loop
 
     def sample(self, model_fn: Callable[[torch.Tensor, torch.Tensor, Any], torch.Tensor],

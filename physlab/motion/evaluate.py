@@ -83,6 +83,7 @@ import numpy as np
 
 from physlab._io import atomic_write_text
 
+from .blend import BLEND_METHODS, TRANSITION, blend, junction_step_ratio
 from .dataset import (
     ACTION_PHRASES,
     BANDAI_NAMCO_ATTRIBUTION,
@@ -108,6 +109,7 @@ from .metrics import (
 )
 
 __all__ = [
+    "phase_change_score", "blending_windows", "evaluate_blending", "format_blending_table",
     "COLUMNS",
     "EVALUATOR_COLUMNS",
     "MIN_T_R",
@@ -798,6 +800,136 @@ def format_sketch_table(rows, noise=0.0, protocol="cross"):
 # ----------------------------------------------------------------------------- CLI
 
 
+# ----------------------------------------------------------------------------- blending
+# Sketch2Anim Table A4 analogue: how well each blending method fills a masked transition of
+# real motion (supp. D, "Performance evaluation").
+#
+# Data: the held-out take's 40-frame windows (:func:`held_out_windows`) that change the most between their first and last quarter — the paper
+# selects HumanML3D samples whose text names two actions; the Bandai-Namco clips are one
+# action each, so physlab takes the windows where the motion changes phase (standing →
+# walking, arm at rest → raised, walking → turning): the score is the change of mean joint
+# speed between frames 0–9 and 30–39 plus the root-relative pose distance between frames 9
+# and 30. The middle ``transition`` frames are masked, each method fills them from the
+# context on both sides (:func:`~physlab.motion.blend.blend`), and the filled windows are
+# compared with the real ones:
+#
+# * **FID** of the shipped text–motion evaluator (filled windows vs. the other held-out
+#   windows; the real masked windows themselves as the sanity row);
+# * **AUJ** and **PJ** (:func:`~physlab.motion.metrics.jerk`, FlowMDM's definitions,
+#   per-frame units) over the transition and two frames on each side; the real windows' PJ is
+#   the target (the paper: "close to GT is better");
+# * **MPJPE** to the real frames of the transition (m), the largest **step ratio** at the
+#   junction (:func:`~physlab.motion.blend.junction_step_ratio`, the real windows' value
+#   alongside), bone-length variation and floor penetration of the filled windows.
+#
+# ``python -m physlab.motion.evaluate --blending`` prints the table.
+
+#: Frames on each side of the transition included in the jerk statistics.
+JERK_MARGIN = 2
+
+
+def phase_change_score(joints, context=10):
+    """How much each window changes between its first and last ``context`` frames:
+    ``|mean joint speed(first) − mean joint speed(last)|`` (m/frame) ``+`` the mean
+    root-relative joint distance between frames ``context − 1`` and ``T − context`` (m).
+
+    joints : (B, T, 22, 3). Returns (B,) float."""
+    x = np.asarray(joints, dtype=float)
+    v = np.linalg.norm(np.diff(x, axis=1), axis=-1).mean(-1)                # (B, T-1)
+    speed = np.abs(v[:, :context - 1].mean(1) - v[:, -(context - 1):].mean(1))
+    rel = x - x[:, :, :1]
+    pose = np.linalg.norm(rel[:, context - 1] - rel[:, -context], axis=-1).mean(-1)
+    return speed + pose
+
+
+def blending_windows(windows=32, pool=256, data_root=None, context=10):
+    """The ``windows`` held-out windows with the largest :func:`phase_change_score` among
+    ``pool`` evenly spaced ones; the rest of the pool is FID's reference. Returns dict
+    ``joints`` (n, 40, 22, 3), ``text`` list, ``reference_joints``, ``score`` (n,)."""
+    if isinstance(windows, bool) or not isinstance(windows, (int, np.integer)) or windows < 2:
+        raise ValueError(f"windows must be an integer >= 2, got {windows!r}")
+    data = held_out_windows(max(int(pool), int(windows)), data_root=data_root)
+    x = np.concatenate([data["joints"], data["reference_joints"]])
+    texts = list(data["text"]) + [""] * len(data["reference_joints"])
+    n_sel = len(data["joints"])
+    s = phase_change_score(x[:n_sel], context)
+    order = np.argsort(-s)[:int(windows)]
+    rest = np.setdiff1d(np.arange(len(x)), order)
+    return {"joints": x[order], "text": [texts[i] for i in order],
+            "reference_joints": x[rest], "score": s[order]}
+
+
+def evaluate_blending(windows=32, transition=TRANSITION, methods=BLEND_METHODS[1:], seed=0,
+                      data_root=None, evaluator="default", generator=None, progress=True,
+                      blend_options=None):
+    """Table A4 analogue (module docstring). Returns ``{row_name: {metric: value}}`` with a
+    ``"real"`` row first."""
+    from .sampling import _progress
+
+    data = blending_windows(windows, data_root=data_root)
+    gt = data["joints"]                                                     # (n, 40, 22, 3)
+    n, T = gt.shape[:2]
+    l = int(transition)
+    if not 1 <= l <= T - 2:
+        raise ValueError(f"transition must be in 1..{T - 2}, got {transition!r}")
+    ca = (T - l) // 2
+    cb = T - l - ca
+    lo, hi = ca - JERK_MARGIN, ca + l + JERK_MARGIN
+    text_motion = None
+    if evaluator is not None:
+        if n < 8:
+            warnings.warn("FID needs >= 8 windows: left out")
+        else:
+            from .evaluator import DEFAULT_EVALUATOR, TextMotionEvaluator, fid
+
+            ev = TextMotionEvaluator.from_checkpoint(DEFAULT_EVALUATOR if evaluator == "default"
+                                                     else evaluator)
+            ref = ev.encode_motion(data["reference_joints"])
+
+            def text_motion(x):
+                return fid(ref, ev.encode_motion(x))
+
+    def row(filled, seconds):
+        auj, pj = jerk(filled[:, lo:hi])
+        r = {"FID": text_motion(filled) if text_motion else float("nan"),
+             "AUJ": auj, "PJ": pj,
+             "MPJPE": float(np.mean([mpjpe(f[ca:ca + l], g[ca:ca + l])
+                                     for f, g in zip(filled, gt)])),
+             "step_ratio": float(np.max([junction_step_ratio(f, slice(ca, ca + l),
+                                                              [g[:ca], g[ca + l:]])
+                                         for f, g in zip(filled, gt)])),
+             "bones": float(np.max(bone_length_variation(filled))),
+             "floor": float(np.mean(floor_penetration(filled))),
+             "seconds": seconds}
+        return r
+
+    rows = {"real": row(gt, 0.0)}
+    for method in methods:
+        if method not in BLEND_METHODS or method == "concat":
+            raise ValueError(f"methods must come from {BLEND_METHODS[1:]}, got {method!r}")
+        out, t0 = [], time.perf_counter()
+        for i in _progress(range(n), progress, method):
+            res = blend(gt[i, :ca], gt[i, ca + l:], transition=l, method=method,
+                        actions=(data["text"][i], data["text"][i]), generator=generator,
+                        seed=seed + i, **(blend_options or {}))
+            out.append(res.joints)
+        rows[method] = row(np.stack(out), (time.perf_counter() - t0) / n)
+    return rows
+
+
+def format_blending_table(rows, transition=TRANSITION):
+    """Markdown table of :func:`evaluate_blending`."""
+    head = ("| method | FID ↓ | AUJ ↓ | PJ (real = {pj:.4f}) | MPJPE m ↓ | max step ratio | "
+            "bone var m | floor % | s / transition |").format(pj=rows["real"]["PJ"])
+    lines = [f"Blending a masked {transition}-frame transition (Table A4 analogue, held-out "
+             f"windows that change phase)", "", head, "|" + " --- |" * 9]
+    for name, r in rows.items():
+        lines.append(f"| {name} | {r['FID']:.3f} | {r['AUJ']:.3f} | {r['PJ']:.4f} | "
+                     f"{r['MPJPE']:.3f} | {r['step_ratio']:.2f} | {r['bones']:.4f} | "
+                     f"{100 * r['floor']:.1f} | {r['seconds']:.2f} |")
+    return "\n".join(lines)
+
+
 def _parser():
     from physlab._cli import Parser
 
@@ -811,7 +943,8 @@ def _parser():
                "  %(prog)s --control runs/control.pt --single-controlnet runs/single.pt "
                "--out runs/eval\n"
                "  %(prog)s --control runs/smoke_control.pt --windows 2 --steps 2    # seconds")
-    p.add_argument("--control", required=True, help="control checkpoint (train --stage control)")
+    p.add_argument("--control", default=None,
+                   help="control checkpoint (train --stage control); required unless --blending")
     p.add_argument("--single-controlnet", default=None,
                    help="optional single-ControlNet control checkpoint (Table 2 ablation)")
     p.add_argument("--windows", type=int, default=64, help="held-out windows (default 64)")
@@ -864,6 +997,11 @@ def _parser():
                         "e.g. 'w/o L_recon=runs/a2/no_recon.pt'); with --sketch")
     p.add_argument("--no-3d", action="store_true",
                    help="skip the 3D table (with --sketch: only the 2D one)")
+    p.add_argument("--blending", action="store_true",
+                   help="Table A4 analogue: fill a masked transition of held-out phase-change "
+                        "windows with each blending method (physlab.motion.evaluate)")
+    p.add_argument("--transition", type=int, default=20,
+                   help="--blending: masked frames (default 20, Sketch2Anim supp. D)")
     p.add_argument("--no-foot-lock", action="store_true",
                    help="body constraints without the foot-contact lock")
     p.add_argument("--frequencies", type=int, default=None,
@@ -881,6 +1019,18 @@ def main(argv=None):
     import torch
 
     torch.set_num_threads(args.num_threads)
+    if args.blending:
+        table = format_blending_table(evaluate_blending(
+            windows=args.windows, transition=args.transition, seed=args.seed,
+            data_root=args.data_root, evaluator=None if args.no_evaluator else args.evaluator,
+            progress=not args.no_progress), args.transition)
+        print(table)
+        if args.out is not None:
+            atomic_write_text(Path(args.out) / "blending.md", table + "\n")
+        return {}
+    if args.control is None:
+        raise ValueError("--control is required (a control checkpoint, e.g. "
+                         "data/motion/sketch2anim_control.pt) unless --blending is given")
     rows = {} if args.no_3d else evaluate(args.control, single_controlnet=args.single_controlnet,
                     windows=args.windows, steps=args.steps, guidance=args.guidance,
                     control_guidance=args.control_guidance,

@@ -50,6 +50,7 @@ import numpy as np
 import torch
 
 from .dataset import TRAJECTORY_JOINT_NAMES, TRAJECTORY_JOINTS
+from .conditions import KEYPOSE_AT, N_FRAMES, build_condition, build_sketch
 from .diffusion import classifier_free_guidance
 from .body import LEG_CHAINS, clip_bone_lengths, constrain_body
 from .features import decode_motion
@@ -63,10 +64,6 @@ __all__ = ["DEFAULT_CHECKPOINT", "N_FRAMES", "Generator", "build_condition", "bu
 DEFAULT_CHECKPOINT = Path(__file__).resolve().parents[2] / "data" / "motion" / \
     "sketch2anim_control.pt"
 
-#: Joint frames of a generated clip (Sketch2Anim N = 40).
-N_FRAMES = 40
-
-KEYPOSE_AT = ("first", "last")
 #: Largest classifier-free guidance scale accepted (the paper uses 7.5).
 MAX_GUIDANCE = 100.0
 METHODS = ("ddim", "ddpm")
@@ -82,18 +79,6 @@ def _train_commands(path):
 
 
 # ----------------------------------------------------------------------------- conditions
-
-
-def _finite_array(x, name, shape=None):
-    try:
-        a = np.asarray(x, dtype=float)
-    except (TypeError, ValueError) as e:
-        raise TypeError(f"{name} must be a numeric array, got {type(x).__name__} ({e})") from None
-    if shape is not None and a.shape != shape:
-        raise ValueError(f"{name} must have shape {shape}, got {a.shape}")
-    if not np.all(np.isfinite(a)):
-        raise ValueError(f"{name} contains NaN or inf")
-    return a
 
 
 #: Default text guidance scale w of Eq. (14) without keypose / trajectories. Sketch2Anim uses
@@ -156,104 +141,6 @@ def _progress(items, show, desc):
     from tqdm.auto import tqdm
 
     return tqdm(items, desc=desc, leave=False)
-
-
-def _trajectories(trajectories, name, dim, N, keypose_at):
-    """Validate a ``{joint_name: (t_r, dim) array}`` dict and place it in an ``(N, 6, dim)``
-    array (the first ``t_r`` frames, or the last with ``keypose_at="last"``) with its
-    ``(N, 6)`` mask."""
-    trajectory = np.zeros((N, len(TRAJECTORY_JOINTS), dim))
-    mask = np.zeros((N, len(TRAJECTORY_JOINTS)), dtype=bool)
-    if trajectories is None:
-        return trajectory, mask
-    if not isinstance(trajectories, dict):
-        raise TypeError(f"{name} must be a dict {{joint_name: (t_r, {dim}) array}} with names "
-                        f"from {', '.join(TRAJECTORY_JOINT_NAMES)}; got "
-                        f"{type(trajectories).__name__}")
-    unknown = [k for k in trajectories if k not in TRAJECTORY_JOINT_NAMES]
-    if unknown:
-        raise ValueError(f"{name} has unknown joint names {unknown}; valid names are "
-                         f"{', '.join(TRAJECTORY_JOINT_NAMES)}")
-    for joint, traj in trajectories.items():
-        p = _finite_array(traj, f"{name}[{joint!r}]")
-        if p.ndim != 2 or p.shape[1] != dim or len(p) < 1:
-            raise ValueError(f"{name}[{joint!r}] must have shape (t_r, {dim}) with t_r >= 1, "
-                             f"got {p.shape}")
-        if len(p) > N:
-            raise ValueError(f"{name}[{joint!r}] has {len(p)} frames, more than the {N} "
-                             f"frames of a generated clip")
-        col = TRAJECTORY_JOINT_NAMES.index(joint)
-        frames = np.arange(len(p)) if keypose_at == "first" else np.arange(N - len(p), N)
-        trajectory[frames, col] = p
-        mask[frames, col] = True
-    return trajectory, mask
-
-
-def build_condition(keypose_3d=None, keypose_at="first", trajectories_3d=None,
-                    n_frames=N_FRAMES):
-    """Dense keypose / trajectory condition of one clip, laid out like
-    :func:`~physlab.motion.dataset.condition_from_window` (Sketch2Anim Sec. 3).
-
-    Parameters
-    ----------
-    keypose_3d : None or (22, 3) float array, metres (canonical window frame).
-    keypose_at : ``"first"`` (keypose at frame 0, trajectories over the first ``t_r``
-        frames) or ``"last"`` (frame ``n_frames - 1``, the last ``t_r`` frames).
-    trajectories_3d : None or dict ``{joint_name: (t_r, 3) array}``, names from
-        :data:`~physlab.motion.dataset.TRAJECTORY_JOINT_NAMES`, ``1 <= t_r <= n_frames``
-        (each joint may have its own ``t_r``).
-
-    Returns
-    -------
-    dict: ``trajectory`` (N, 6, 3) float64 (zeros where masked), ``traj_mask`` (N, 6) bool,
-    ``keypose`` (22, 3) float64 (zeros when absent), ``key_frame`` int, ``has_keypose`` bool,
-    ``has_trajectory`` bool.
-    """
-    if keypose_at not in KEYPOSE_AT:
-        raise ValueError(f"keypose_at must be 'first' or 'last', got {keypose_at!r}")
-    N = int(n_frames)
-    key_frame = 0 if keypose_at == "first" else N - 1
-    keypose = np.zeros((len(JOINT_NAMES), 3))
-    if keypose_3d is not None:
-        keypose = _finite_array(keypose_3d, "keypose_3d", (len(JOINT_NAMES), 3))
-    trajectory, mask = _trajectories(trajectories_3d, "trajectories_3d", 3, N, keypose_at)
-    return {"trajectory": trajectory, "traj_mask": mask, "keypose": keypose,
-            "key_frame": key_frame, "has_keypose": keypose_3d is not None,
-            "has_trajectory": bool(mask.any())}
-
-
-def build_sketch(keypose_2d=None, keypose_at="first", trajectories_2d=None, camera=None,
-                 n_frames=N_FRAMES):
-    """Validate 2D (sketch) conditions and lay them out for the 2D guidance
-    (:func:`~physlab.motion.guidance.sketch_losses`): the keypose and trajectories drawn in the
-    view of ``camera`` (normalised image units, :mod:`~physlab.motion.camera`), placed as the
-    3D ones are (:func:`build_condition`).
-
-    Returns
-    -------
-    dict: ``trajectory`` (N, 6, 2), ``traj_mask`` (N, 6) bool, ``keypose`` (22, 2) or None,
-    ``key_frame`` int, ``projection`` (2, 3) ``s · R[:2]`` or None, ``has_keypose``,
-    ``has_trajectory`` bool.
-    """
-    from .camera import Camera
-
-    if keypose_at not in KEYPOSE_AT:
-        raise ValueError(f"keypose_at must be 'first' or 'last', got {keypose_at!r}")
-    N = int(n_frames)
-    key_frame = 0 if keypose_at == "first" else N - 1
-    keypose = None
-    if keypose_2d is not None:
-        keypose = _finite_array(keypose_2d, "keypose_2d", (len(JOINT_NAMES), 2))
-    trajectory, mask = _trajectories(trajectories_2d, "trajectories_2d", 2, N, keypose_at)
-    drawn = keypose is not None or bool(mask.any())
-    if drawn and not isinstance(camera, Camera):
-        raise ValueError(f"keypose_2d / trajectories_2d need the camera they were drawn in: "
-                         f"camera=physlab.motion.camera.Camera(scale, pitch, yaw, roll), got "
-                         f"{camera!r}")
-    projection = camera.scale * camera.rotation[:2] if drawn else None
-    return {"trajectory": trajectory, "traj_mask": mask, "keypose": keypose,
-            "key_frame": key_frame, "projection": projection,
-            "has_keypose": keypose is not None, "has_trajectory": bool(mask.any())}
 
 
 # ----------------------------------------------------------------------------- generator
@@ -404,7 +291,7 @@ class Generator:
         return text + w_c * (controlled - out_a)                            # Eq. (14), sketch
 
     def _guide(self, out, x, t, cond, joints_target, iters, proximity, optimizer="lbfgs",
-               sketch=None):
+               sketch=None, loss_fn=None):
         """Inference guidance (Sketch2Anim supp. C, Eq. (15); loss-guided diffusion): ``iters``
         L-BFGS iterations on the clean-motion estimate x̂₀ of this step, minimising
         ``G(x) = L_tr(R(x)) + L_key(R(x)) + proximity · mean_j ‖R(x)_j − R(x̂₀)_j‖²
@@ -415,7 +302,8 @@ class Generator:
         median over the pre-guidance clip), then the network output is rewritten for the
         corrected x̂₀ so the sampler's step uses it. A ``sketch`` (2D conditions, see
         :func:`~physlab.motion.guidance.sketch_losses`) adds ``G`` of Eq. (16) and its keypose
-        term.
+        term. ``loss_fn(joints) -> scalar`` (joints ``(1, N, 22, 3)`` m, canonical frame) adds
+        any other term to G (motion blending's ``G_m``, supp. Eq. (18)).
 
         The paper differentiates G through the network w.r.t. z_t and applies it only to its
         2D trajectories; physlab differentiates w.r.t. x̂₀ (no backpropagation through the
@@ -473,6 +361,8 @@ class Generator:
                 g = g + control_losses(z, target_key, cond, mean, std, rep)[1]  # Eq. (8)
             if sketch is not None:
                 g = g + sum(sketch_losses(joints, sketch))                     # Eq. (16)
+            if loss_fn is not None:
+                g = g + loss_fn(joints)
             g.backward()
             return g
 

@@ -31,13 +31,12 @@ pelvis is placed where the canonical frame-0 pelvis ``(0, h, 0)`` projects (for
 """
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from physlab._io import atomic_write_text
+from physlab._io import read_json, write_json
 
 from .camera import Camera, from_pixels
 from .dataset import TRAJECTORY_JOINT_NAMES, TRAJECTORY_JOINTS
@@ -463,15 +462,11 @@ class Sketch:
 
     def save(self, path):
         """Write the sketch as JSON (atomically: a failed write keeps the old file)."""
-        return atomic_write_text(path, json.dumps(self.to_dict(), indent=1) + "\n")
+        return write_json(path, self.to_dict())
 
     @classmethod
     def load(cls, path):
-        path = Path(path)
-        try:
-            d = json.loads(path.read_text(encoding="utf-8"))
-        except json.JSONDecodeError as e:
-            raise ValueError(f"{path}: not valid JSON (line {e.lineno}: {e.msg})") from None
+        d = read_json(path)
         return cls.from_dict(d, source=str(path))
 
 

@@ -1,0 +1,311 @@
+"""Blending adjacent motion clips into one animation (Sketch2Anim Sec. 6 "Motion Blending",
+supp. D, Eqs. (17)–(18), Table A4).
+
+A storyboard gives one 40-frame clip per sketch frame. Played back to back they pop: the
+next clip starts wherever and however it was generated. Two steps join them:
+
+1. **Placement.** :func:`place_after` rotates the next clip about the vertical and moves it
+   on the floor so that it starts facing where the previous clip ended facing, and where
+   the previous clip's pelvis would be after the transition at the two clips' mean speed.
+2. **Transition.** ``l`` new frames go between the clips (:func:`blend`). The baselines fill
+   them without a model: linear interpolation of joint positions, slerp or SQUAD of the joint
+   rotations (:mod:`physlab.motion.transitions`). Sketch2Anim's method (``"inversion"``)
+   takes a window of the model's length (40 frames: the last ``c_a`` frames of the first
+   clip, the ``l`` linearly blended frames, the first ``c_b`` frames of the second clip),
+   inverts it to noise by deterministic DDIM inversion (Eq. (17)), and denoises it again
+   with the text of both actions under classifier-free guidance while an L-BFGS guidance
+   keeps the window's context frames on the two clips' global joints (Eq. (18))::
+
+       G_m = ‖R(slice(x̂₀^Inv, p)) − R(x̂₀^p)‖² + ‖R(slice(x̂₀^Inv, q)) − R(x̂₀^q)‖²
+
+   so the model re-plans the gap as a motion it knows while both neighbours stay put. The
+   final x̂₀ is the window; its context frames are cross-faded into the clips (they differ
+   from them by the guidance's residual only), so nothing jumps where the window ends.
+
+Differences from the paper, all measured in lesson 11 / ``python -m physlab.motion.evaluate
+--blending``: physlab's model has a fixed 40-frame window, so the blending window is 40
+frames centred on the gap (the paper's MLD latent takes longer motions); the guidance works
+on x̂₀ of each step (:meth:`~physlab.motion.sampling.Generator._guide`, no backpropagation
+through the network), not on z_t; the combined action ``a_{p+q}`` is the mean of the two
+action embeddings (no new text to encode).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .features import _rotate_y, canonicalize, root_heading
+from .skeleton import JOINT_NAMES
+
+__all__ = ["BLEND_METHODS", "TRANSITION", "BlendResult", "place_after", "blend",
+           "junction_step_ratio", "BLEND_STEPS", "BLEND_GUIDANCE"]
+
+#: Transition methods of :func:`blend`: naive concatenation (no gap), the model-free
+#: baselines, and Sketch2Anim's inversion-based blending.
+BLEND_METHODS = ("concat", "linear", "slerp", "squad", "inversion")
+#: Default transition length in frames (Sketch2Anim supp. D masks 20 frames = 1 s).
+TRANSITION = 20
+#: DDIM steps of the inversion and of the denoising that follows (fewer than generation's
+#: 50: the window starts from a motion, not from noise).
+BLEND_STEPS = 20
+#: L-BFGS iterations of the G_m guidance at every denoising step and at the last one.
+BLEND_GUIDANCE = (4, 20)
+#: Fixed-point refinements per inversion step (:meth:`~physlab.motion.diffusion.
+#: NoiseScheduler.invert`).
+INVERSION_FIXED_POINT = 0
+#: Weight of the pull of the transition frames towards their linear-blend initialisation in
+#: the guidance (0 = the paper's G_m alone). Measured on 16 held-out phase-change windows
+#: (``python -m physlab.motion.evaluate --blending``): the shipped model does not reconstruct
+#: what it inverts (invert + denoise, no guidance: 0.34-0.44 m from the input), so with G_m
+#: alone the gap becomes a detour (MPJPE to the real frames 0.41 m, linear blend 0.14 m);
+#: weights 0.3 / 1 / 3: MPJPE 0.143 / 0.141 / 0.139 m, AUJ 0.35 / 0.29 / 0.24.
+INIT_WEIGHT = 1.0
+#: Frames over which a clip's velocity is averaged for :func:`place_after`.
+_SPEED_FRAMES = 5
+
+
+def _check_clip(x, name, min_frames=1):
+    x = np.asarray(x, dtype=float)
+    if x.ndim != 3 or x.shape[1:] != (len(JOINT_NAMES), 3):
+        raise ValueError(f"{name} must be a (T, {len(JOINT_NAMES)}, 3) joints array (m), got "
+                         f"shape {x.shape}")
+    if len(x) < min_frames:
+        raise ValueError(f"{name} needs at least {min_frames} frames, got {len(x)}")
+    if not np.all(np.isfinite(x)):
+        raise ValueError(f"{name} contains NaN or inf")
+    return x
+
+
+def _check_transition(transition, upper=None):
+    if isinstance(transition, bool) or not isinstance(transition, (int, np.integer)) \
+            or transition < 0 or (upper is not None and transition > upper):
+        rng = f"0..{upper}" if upper is not None else ">= 0"
+        raise ValueError(f"transition must be an integer number of frames in {rng}, got "
+                         f"{transition!r}")
+    return int(transition)
+
+
+def place_after(prev, nxt, transition=TRANSITION):
+    """Move ``nxt`` so that it continues ``prev`` after a gap of ``transition`` frames.
+
+    Rotation about the vertical through ``nxt``'s first pelvis by ``θ_prev − θ_next``
+    (:func:`~physlab.motion.features.root_heading` of ``prev``'s last and ``nxt``'s first
+    frame), then a horizontal shift putting ``nxt``'s first pelvis at ``prev``'s last pelvis
+    plus ``(transition + 1)`` times the mean horizontal pelvis velocity of the two clips
+    (each over its :data:`_SPEED_FRAMES` frames next to the gap). Heights are kept.
+
+    prev : (Ta, 22, 3), nxt : (Tb, 22, 3) joints (m); transition : int >= 0 frames.
+    Returns (Tb, 22, 3), ``nxt`` placed.
+    """
+    a = _check_clip(prev, "prev")
+    b = _check_clip(nxt, "nxt")
+    l = _check_transition(transition)
+    turn = float(root_heading(a[-1:])[0] - root_heading(b[:1])[0])
+    pivot = np.array([b[0, 0, 0], 0.0, b[0, 0, 2]])
+    b = _rotate_y(b - pivot, np.full(len(b), turn)) + pivot
+    k = _SPEED_FRAMES
+    va = np.diff(a[-k - 1:, 0], axis=0).mean(0) if len(a) > 1 else np.zeros(3)
+    vb = np.diff(b[:k + 1, 0], axis=0).mean(0) if len(b) > 1 else np.zeros(3)
+    target = a[-1, 0] + (l + 1) * (va + vb) / 2
+    shift = np.array([target[0] - b[0, 0, 0], 0.0, target[2] - b[0, 0, 2]])
+    return b + shift
+
+
+@dataclass
+class BlendResult:
+    """Two clips joined by a transition (:func:`blend`).
+
+    joints : (Ta + l + Tb, 22, 3) m, the whole motion; ``transition`` : slice of the ``l``
+    new frames in ``joints``; ``window`` : slice of the frames the method changed (the
+    transition plus, for ``"inversion"``, the context frames it cross-fades); ``method``;
+    ``seconds`` : wall time of the transition.
+    """
+    joints: np.ndarray
+    transition: slice
+    window: slice
+    method: str
+    seconds: float = 0.0
+
+
+def _smoothstep(n):
+    """n weights rising smoothly from ~0 to ~1 (exclusive): 3s² − 2s³ at s = k/(n+1)."""
+    s = np.arange(1, n + 1) / (n + 1)
+    return 3 * s ** 2 - 2 * s ** 3
+
+
+def blend(clip_a, clip_b, transition=TRANSITION, method="inversion", actions=None,
+          generator=None, seed=0, steps=BLEND_STEPS, guidance=BLEND_GUIDANCE,
+          guidance_scale=None, body_constraints=True, progress=False,
+          fixed_point=INVERSION_FIXED_POINT, init_weight=INIT_WEIGHT):
+    """Join ``clip_a`` and ``clip_b`` (already placed, :func:`place_after`) by ``transition``
+    new frames (module docstring).
+
+    Parameters
+    ----------
+    clip_a, clip_b : (Ta, 22, 3), (Tb, 22, 3) joints (m), world frame, y up.
+    transition : int, frames between them (``"concat"``: ignored, 0).
+    method : one of :data:`BLEND_METHODS`.
+    actions : ``(text_a, text_b)`` action texts, needed by ``"inversion"``.
+    generator : a :class:`~physlab.motion.sampling.Generator` (default: the shipped one),
+        ``"inversion"`` only; seed : int (the inversion is deterministic; the seed only
+        matters for ties); steps : DDIM steps of inversion and denoising.
+    guidance : ``(per_step, final)`` L-BFGS iterations of the G_m guidance, Eq. (18).
+    guidance_scale : classifier-free guidance w on the combined text (None: the generator's
+        text-only default).
+    body_constraints : rigid bones and feet on the floor for the new window
+        (:func:`~physlab.motion.body.constrain_body`).
+    progress : tqdm bars of the inversion and the denoising.
+
+    Returns
+    -------
+    :class:`BlendResult`.
+    """
+    import time
+
+    if method not in BLEND_METHODS:
+        raise ValueError(f"method must be one of {BLEND_METHODS}, got {method!r}")
+    a = _check_clip(clip_a, "clip_a", 2)
+    b = _check_clip(clip_b, "clip_b", 2)
+    t0 = time.perf_counter()
+    if method == "concat":
+        j = np.concatenate([a, b])
+        return BlendResult(j, slice(len(a), len(a)), slice(len(a), len(a)), method,
+                           time.perf_counter() - t0)
+    l = _check_transition(transition)
+    if l < 1:
+        raise ValueError(f"transition must be >= 1 frame for method {method!r} (use "
+                         f"method='concat' for none), got {l}")
+    if method in ("linear", "slerp", "squad"):
+        from . import transitions
+        fill = getattr(transitions, f"{method}_transition")(a, b, l)
+        j = np.concatenate([a, fill, b])
+        s = slice(len(a), len(a) + l)
+        return BlendResult(j, s, s, method, time.perf_counter() - t0)
+    j, window = _inversion_blend(a, b, l, actions, generator, seed, steps, guidance,
+                                 guidance_scale, body_constraints, progress, int(fixed_point),
+                                 float(init_weight))
+    return BlendResult(j, slice(len(a), len(a) + l), window, method, time.perf_counter() - t0)
+
+
+def _check_guidance(guidance):
+    try:
+        per_step, final = (int(v) for v in guidance)
+    except (TypeError, ValueError):
+        raise ValueError(f"guidance must be a pair (per_step, final) of L-BFGS iteration "
+                         f"counts, got {guidance!r}") from None
+    if per_step < 0 or final < 0:
+        raise ValueError(f"guidance counts must be >= 0, got {guidance!r}")
+    return per_step, final
+
+
+def _inversion_blend(a, b, l, actions, generator, seed, steps, guidance, guidance_scale,
+                     body_constraints, progress, fixed_point, init_weight):
+    """Sketch2Anim supp. D on a window of the model's length; returns (joints, window)."""
+    import torch
+
+    from .body import clip_bone_lengths, constrain_body
+    from .features import decode_motion, encode_motion
+    from .sampling import TEXT_FREQUENCIES, TEXT_GUIDANCE, _progress, load_generator
+    from .transitions import linear_transition
+
+    if (not isinstance(actions, (tuple, list)) or len(actions) != 2
+            or not all(isinstance(t, str) and t.strip() for t in actions)):
+        raise ValueError(f"method 'inversion' needs actions=(text_a, text_b), the two clips' "
+                         f"action texts, got {actions!r}")
+    per_step, final = _check_guidance(guidance)
+    if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps < 1:
+        raise ValueError(f"steps must be an integer >= 1, got {steps!r}")
+    gen = generator if generator is not None else load_generator()
+    cfg = gen.config
+    N = cfg.n_joint_frames
+    if l > N - 2:
+        raise ValueError(f"transition must be at most {N - 2} frames for 'inversion' (the "
+                         f"model's window is {N} frames and keeps >= 1 context frame on each "
+                         f"side), got {l}")
+    ca = (N - l) // 2
+    cb = N - l - ca
+    if len(a) < ca or len(b) < cb:
+        raise ValueError(f"clip_a needs >= {ca} and clip_b >= {cb} frames for a {l}-frame "
+                         f"transition, got {len(a)} and {len(b)}")
+    before, after = a[-ca:], b[:cb]
+    init = np.concatenate([before, linear_transition(before, after, l), after])   # (N, 22, 3)
+    wc, theta0, offset = canonicalize(init, ground=False, return_transform=True)
+    feats = gen.stats.normalize(encode_motion(wc, cfg.representation))           # (n, D)
+    x0 = torch.tensor(feats, dtype=torch.float32)[None]                           # (1, n, D)
+
+    # a_{p+q}: the two action embeddings averaged (renormalised to their mean length)
+    e = np.stack([gen.text_cache.get(t) for t in actions]).astype(np.float64)    # (2, 384)
+    m = e.mean(0)
+    m *= np.linalg.norm(e, axis=1).mean() / max(np.linalg.norm(m), 1e-12)
+    text = torch.tensor(m, dtype=torch.float32)[None]                             # (1, 384)
+    w = float(TEXT_GUIDANCE if guidance_scale is None else guidance_scale)
+    keep = np.r_[0:ca, N - cb:N]                                                  # context
+    target = torch.tensor(wc[keep], dtype=torch.float32)[None]                    # (1, k, 22, 3)
+
+    gap = np.r_[ca:N - cb]
+    init_gap = torch.tensor(wc[gap], dtype=torch.float32)[None]                   # (1, l, 22, 3)
+
+    def g_m(joints):                                   # supp. Eq. (18)'s G_m, metres²
+        g = ((joints[:, keep] - target) ** 2).sum(-1).mean()
+        if init_weight:                                # physlab: stay near the blend
+            g = g + init_weight * ((joints[:, gap] - init_gap) ** 2).sum(-1).mean()
+        return g
+
+    sched = gen.scheduler
+    drop = torch.tensor([False])
+    freq = min(TEXT_FREQUENCIES, cfg.smooth_basis) or None
+    torch.manual_seed(int(seed))
+    with gen._frequencies(freq):
+        z = sched.invert(lambda x, t, c: gen.denoiser(x, t, text, drop), x0, steps=int(steps),
+                         progress=progress, fixed_point=fixed_point)              # Eq. (17)
+        timesteps = sched.set_timesteps(int(steps))
+        x = z
+        with torch.no_grad():
+            for i, t in enumerate(_progress(timesteps.tolist(), progress, "blend denoising")):
+                t_prev = int(timesteps[i + 1]) if i + 1 < len(timesteps) else -1
+                t_in = torch.tensor([t])
+                out = gen._predict(x, t_in, text, None, w)                        # CFG
+                iters = final if t_prev == -1 else per_step
+                if iters:
+                    out = gen._guide(out, x, t_in, None, None, iters, 0.0, "lbfgs",
+                                     loss_fn=g_m)                                 # Eq. (18)
+                x, x0_hat = sched.ddim_step(out, t, t_prev, x)
+    out = gen.stats.denormalize(x0_hat[0].double().numpy())
+    win = decode_motion(out, cfg.representation)                                  # (N, 22, 3)
+    win = _rotate_y(win, np.full(N, theta0)) + offset                             # world
+    if not np.all(np.isfinite(win)):
+        raise FloatingPointError("the blending window became NaN/inf; try fewer guidance "
+                                 "iterations or another checkpoint")
+    # cross-fade the context frames from the clips into the window and back
+    wa = _smoothstep(ca)[:, None, None]
+    wb = _smoothstep(cb)[::-1, None, None]
+    mixed_a = (1 - wa) * before + wa * win[:ca]
+    mixed_b = (1 - wb) * after + wb * win[N - cb:]
+    changed = np.concatenate([mixed_a, win[ca:N - cb], mixed_b])
+    if body_constraints:      # rigid bones at the clips' lengths, feet not below the floor
+        changed = constrain_body(changed, clip_bone_lengths(np.concatenate([before, after])),
+                                 lock=False)
+    j = np.concatenate([a[:-ca], changed, b[cb:]])
+    return j, slice(len(a) - ca, len(a) + l + cb)
+
+
+def junction_step_ratio(joints, window, clips):
+    """How much a joined motion jumps at a junction: the largest frame-to-frame joint step
+    into, inside and out of the changed frames ``window`` (a slice of ``joints``; an empty
+    slice ``[k, k)`` for a plain cut before frame k) divided by the median over both clips
+    of their per-frame largest joint step. ≤ 1.5 is "no visible seam" (the storyboard issue's
+    bound); a plain cut between two different clips gives far more.
+
+    joints : (T, 22, 3) the joined motion (m); window : slice (:attr:`BlendResult.window`);
+    clips : the two (T_i, 22, 3) clips as they were before joining. Returns float.
+    """
+    x = _check_clip(joints, "joints", 2)
+    start, stop = window.start, window.stop
+    if not 1 <= start <= stop <= len(x) - 1:
+        raise ValueError(f"window must lie inside the motion with a frame on each side, got "
+                         f"[{start}, {stop}) for {len(x)} frames")
+    step = np.linalg.norm(np.diff(x, axis=0), axis=-1).max(axis=-1)             # (T-1,)
+    ref = np.concatenate([np.linalg.norm(np.diff(_check_clip(c, "clips", 2), axis=0),
+                                         axis=-1).max(axis=-1) for c in clips])
+    return float(step[start - 1:max(stop, start)].max() / max(np.median(ref), 1e-9))

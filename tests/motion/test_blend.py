@@ -1,0 +1,132 @@
+"""Tests of physlab.motion.blend: placement of a clip after another, the transition methods
+(plain cut, linear, slerp, SQUAD, Sketch2Anim's DDIM-inversion blending with the shipped
+generator), the junction statistic, and bad input."""
+import numpy as np
+import pytest
+import torch
+
+from physlab.motion.blend import (BLEND_METHODS, BlendResult, blend, junction_step_ratio,
+                                  place_after)
+from physlab.motion.features import _rotate_y, root_heading
+from physlab.motion.metrics import bone_length_variation, floor_penetration, jerk
+from physlab.motion.sketch import template_pose
+
+
+def _walk(T=40, v=(0.0, 0.0, 0.05), heading=0.0, start=(0.0, 0.0)):
+    """A rigid standing pose sliding at constant velocity v (m/frame) along its facing
+    direction rotated by ``heading``: an analytic "clip"."""
+    pose = template_pose()                                            # faces +z
+    x = np.repeat(pose[None], T, axis=0) + np.arange(T)[:, None, None] * np.asarray(v)
+    x = _rotate_y(x, np.full(T, heading))
+    x[..., 0] += start[0]
+    x[..., 2] += start[1]
+    return x
+
+
+@pytest.fixture(scope="module")
+def gen():
+    from physlab.motion.sampling import load_generator
+
+    torch.set_num_threads(1)
+    return load_generator()
+
+
+def test_place_after_continues_position_and_heading():
+    a = _walk(heading=0.4, start=(1.0, 2.0))
+    b = _walk(heading=-1.3, start=(-5.0, 7.0))                       # anywhere, any facing
+    for l in (0, 5, 20):
+        p = place_after(a, b, l)
+        assert np.isclose(root_heading(p[:1])[0], root_heading(a[-1:])[0], atol=1e-9)
+        # same speed on both sides: the pelvis continues the straight line exactly
+        step = a[-1, 0] - a[-2, 0]
+        assert np.allclose(p[0, 0], a[-1, 0] + (l + 1) * step, atol=1e-9)
+        assert np.allclose(p[1:, 0] - p[:-1, 0], step, atol=1e-9)      # keeps going the same way
+        assert np.allclose(p[..., 1], b[..., 1])                      # heights kept
+    # the whole placed motion equals the continuation of the analytic walk
+    a2 = _walk(T=80, heading=0.4, start=(1.0, 2.0))
+    assert np.allclose(place_after(a, b, 0), a2[40:], atol=1e-9)
+
+
+def test_concat_and_linear_on_a_steady_walk_have_no_seam():
+    a = _walk()
+    full = _walk(T=100)
+    b = place_after(a, _walk(start=(3.0, -2.0)), 20)
+    res = blend(a, b, 20, method="linear")
+    assert isinstance(res, BlendResult) and res.joints.shape == (100, 22, 3)
+    assert res.transition == slice(40, 60) == res.window
+    assert np.allclose(res.joints, full, atol=1e-9)                   # exactly the walk
+    assert junction_step_ratio(res.joints, res.window, [a, b]) == pytest.approx(1.0)
+    cut = blend(a, _walk(start=(3.0, -2.0)), method="concat")
+    assert cut.joints.shape == (80, 22, 3) and cut.window == slice(40, 40)
+    assert junction_step_ratio(cut.joints, cut.window, [a, b]) > 50   # a 3.6 m pop
+
+
+@pytest.mark.parametrize("method", ["slerp", "squad"])
+def test_rotational_transitions_keep_bones(method):
+    a = _walk()
+    b = place_after(a, _walk(heading=0.8), 20)
+    res = blend(a, b, 20, method=method)
+    assert res.joints.shape == (100, 22, 3)
+    assert bone_length_variation(res.joints[res.transition]) < 1e-6
+    assert np.allclose(res.joints[:40], a) and np.allclose(res.joints[60:], b)
+
+
+def test_junction_step_ratio_by_hand():
+    x = np.zeros((6, 22, 3))
+    x[:, :, 0] = np.array([0, 1, 2, 3, 7, 8])[:, None] * 0.1          # one 0.4 m step 3 -> 4
+    clip = x[:3]
+    assert junction_step_ratio(x, slice(4, 4), [clip, clip]) == pytest.approx(4.0)
+    assert junction_step_ratio(x, slice(1, 3), [clip, clip]) == pytest.approx(1.0)
+    with pytest.raises(ValueError, match="window"):
+        junction_step_ratio(x, slice(0, 2), [clip, clip])
+
+
+def test_inversion_blend_joins_two_generated_clips(gen):
+    """Sketch2Anim supp. D with the shipped model: a walk, then a bow. The result keeps both
+    clips outside the blending window, is deterministic, rigid, on the floor, and far
+    smoother at the junction than the plain cut."""
+    a = gen("a person walks", seed=0, steps=20)
+    b0 = gen("a person bows", seed=1, steps=20)
+    b = place_after(a, b0, 20)
+    kw = dict(actions=("a person walks", "a person bows"), generator=gen)
+    res = blend(a, b, 20, method="inversion", **kw)
+    j = res.joints
+    assert j.shape == (100, 22, 3) and res.transition == slice(40, 60)
+    assert res.window == slice(30, 70)                                # 10 context frames a side
+    assert np.array_equal(j[:30], a[:30]) and np.array_equal(j[70:], b[10:])
+    assert np.array_equal(j, blend(a, b, 20, method="inversion", **kw).joints)
+    w = j[res.window]
+    assert bone_length_variation(w) < 0.01
+    assert floor_penetration(w) <= 0.01
+    cut = blend(a, place_after(a, b0, 0), method="concat")
+    r_blend = junction_step_ratio(j, res.window, [a, b])
+    r_cut = junction_step_ratio(cut.joints, cut.window, [a, b])
+    assert r_blend < r_cut
+    # the context frames stay on the clips (G_m of Eq. (18)): a few cm at most
+    assert np.linalg.norm(j[[30, 69]] - np.stack([a[30], b[9]]), axis=-1).mean() < 0.05
+    # smoother than the cut over the junction
+    assert jerk(j[35:65])[1] < jerk(cut.joints[25:55])[1]
+
+
+def test_bad_input(gen):
+    a = _walk()
+    with pytest.raises(ValueError, match="method must be one of"):
+        blend(a, a, method="cubic")
+    with pytest.raises(ValueError, match="transition"):
+        blend(a, a, 0, method="linear")
+    with pytest.raises(ValueError, match="transition"):
+        blend(a, a, -1, method="linear")
+    with pytest.raises(ValueError, match="transition must be at most 38"):
+        blend(a, a, 39, method="inversion", actions=("a", "b"), generator=gen)
+    with pytest.raises(ValueError, match="actions"):
+        blend(a, a, 20, method="inversion", generator=gen)
+    with pytest.raises(ValueError, match="clip_a needs >= 10"):
+        blend(a[:5], a, 20, method="inversion", actions=("a person walks",) * 2, generator=gen)
+    with pytest.raises(ValueError, match=r"clip_b must be a \(T, 22, 3\)"):
+        blend(a, a[..., :2], method="linear")
+    with pytest.raises(ValueError, match="NaN"):
+        place_after(a, np.full_like(a, np.nan))
+    with pytest.raises(ValueError, match="guidance"):
+        blend(a, a, 20, method="inversion", actions=("a person walks",) * 2, generator=gen,
+              guidance=(1,))
+    assert set(BLEND_METHODS) == {"concat", "linear", "slerp", "squad", "inversion"}

@@ -1,0 +1,138 @@
+"""Tests of physlab.motion.storyboard: frames and their validation, the JSON round trip
+(with a drawn sketch), and a three-frame storyboard to one animation with the shipped
+generator (shape, segments, determinism, no visible seam compared with a plain cut)."""
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+import torch
+
+from physlab.motion import (Storyboard, StoryboardFrame, animate_storyboard,
+                            storyboard_to_motion)
+from physlab.motion.blend import junction_step_ratio
+from physlab.motion.camera import Camera
+from physlab.motion.metrics import bone_length_variation, floor_penetration
+from physlab.motion.sketch import Sketch, template_pose
+
+SKETCH = Path(__file__).resolve().parents[2] / "data" / "motion" / "example_sketch.json"
+FAST = dict(steps=20, guidance_final=0)          # networks only, 20 DDIM steps: quick
+
+
+def _board():
+    key = template_pose()
+    return Storyboard([StoryboardFrame("a person walks"),
+                       StoryboardFrame("a person bows", keypose_3d=key),
+                       StoryboardFrame("a person waves with the right hand")],
+                      title="walk, bow, wave")
+
+
+def test_frame_validation_names_the_field():
+    with pytest.raises(ValueError, match="action"):
+        StoryboardFrame("  ")
+    with pytest.raises(ValueError, match="keypose_at"):
+        StoryboardFrame("a person walks", keypose_at="middle")
+    with pytest.raises(ValueError, match=r"keypose_3d must have shape \(22, 3\)"):
+        StoryboardFrame("a person walks", keypose_3d=np.zeros((21, 3)))
+    with pytest.raises(ValueError, match="unknown joint names"):
+        StoryboardFrame("a person walks", trajectories_3d={"nose": np.zeros((5, 3))})
+    with pytest.raises(ValueError, match="not both"):
+        StoryboardFrame("a person walks", keypose_2d=np.zeros((22, 2)),
+                        keypose_3d=template_pose(), camera=Camera())
+    # a drawn frame may take its camera from the storyboard, but needs one from somewhere
+    drawn = StoryboardFrame("a person walks", keypose_2d=np.zeros((22, 2)))
+    assert Storyboard([drawn], camera=Camera(yaw=30)).frames[0].camera is None
+    assert drawn.generate_kwargs(Camera(yaw=30))["camera"] == Camera(yaw=30)
+    with pytest.raises(ValueError, match=r"frames\[0\] \('a person walks'\): .*need the camera"):
+        Storyboard([drawn])
+    with pytest.raises(TypeError, match=r"frames\[1\] must be a StoryboardFrame"):
+        Storyboard([StoryboardFrame("a person walks"), "not a frame"])
+    with pytest.raises(ValueError, match="at least one frame"):
+        Storyboard([])
+
+
+def test_json_round_trip_with_a_sketch(tmp_path):
+    sk = Sketch.load(SKETCH)
+    frame = StoryboardFrame.from_sketch(sk)
+    assert frame.camera == sk.camera and frame.sketch is sk and frame.has_2d
+    board = Storyboard([frame, StoryboardFrame("a person bows", keypose_3d=template_pose(),
+                                               keypose_at="last")],
+                       camera=Camera(pitch=20, yaw=30), title="demo")
+    path = board.save(tmp_path / "board.json")
+    back = Storyboard.load(path)
+    assert back.title == "demo" and back.camera == board.camera and len(back) == 2
+    for f, g in zip(board.frames, back.frames):
+        assert f.action == g.action and f.keypose_at == g.keypose_at
+        for k in ("keypose_2d", "keypose_3d"):
+            assert (getattr(f, k) is None) == (getattr(g, k) is None)
+            if getattr(f, k) is not None:
+                assert np.allclose(getattr(f, k), getattr(g, k), atol=1e-5)
+    assert back.frames[0].sketch.to_dict() == sk.to_dict()
+    assert set(back.frames[0].trajectories_2d) == set(frame.trajectories_2d or {})
+
+
+def test_load_errors_name_the_file_and_frame(tmp_path):
+    p = tmp_path / "b.json"
+    p.write_text("{not json")
+    with pytest.raises(ValueError, match="b.json: not valid JSON"):
+        Storyboard.load(p)
+    p.write_text(json.dumps({"version": 1, "frames": [{"action": "a person walks"},
+                                                      {"action": "x", "pose": 1}]}))
+    with pytest.raises(ValueError, match=r"frames\[1\]: unknown keys \['pose'\]"):
+        Storyboard.load(p)
+    p.write_text(json.dumps({"version": 7, "frames": []}))
+    with pytest.raises(ValueError, match="'version' must be 1"):
+        Storyboard.load(p)
+    # a failed write keeps the previous file
+    good = _board().save(tmp_path / "keep.json")
+    before = good.read_text()
+    with pytest.raises(TypeError):
+        Storyboard([StoryboardFrame("a person walks", keypose_3d=np.zeros((22, 3)))],
+                   title=object()).save(good)
+    assert good.read_text() == before
+
+
+@pytest.fixture(scope="module")
+def animation():
+    torch.set_num_threads(1)
+    return animate_storyboard(_board(), transition=20, seed=3, **FAST)
+
+
+def test_three_frames_become_one_animation(animation):
+    a = animation
+    assert a.joints.shape == (3 * 40 + 2 * 20, 22, 3)
+    assert [s.stop - s.start for s in a.segments] == [40, 40, 40]
+    assert [t.stop - t.start for t in a.transitions] == [20, 20]
+    assert a.segments[1].start == a.transitions[0].stop
+    assert a.frame_at(0) == 0 and a.frame_at(a.segments[2].start) == 2
+    assert len(a.seconds["generate"]) == 3 and len(a.seconds["blend"]) == 2
+    # the bow's keypose is kept: the middle clip is the generated one, placed
+    seg = a.joints[a.segments[1]]
+    clip = a.clips[1]
+    rel = lambda x: x - x[:, :1]                                       # noqa: E731
+    assert np.abs(rel(seg)[12:-12] - rel(clip)[12:-12]).max() < 0.5   # same poses, turned
+    for w in a.windows:
+        assert bone_length_variation(a.joints[w]) < 0.01
+        assert floor_penetration(a.joints[w]) <= 0.01
+    # deterministic, and storyboard_to_motion returns the same joints
+    again = storyboard_to_motion(_board(), transition=20, seed=3, **FAST)
+    assert np.array_equal(again, a.joints)
+
+
+def test_blending_beats_a_plain_cut(animation):
+    cut = animate_storyboard(_board(), seed=3, method="concat", **FAST)
+    assert cut.joints.shape == (120, 22, 3)
+    for k in range(2):
+        pair = [animation.clips[k], animation.clips[k + 1]]
+        r_blend = junction_step_ratio(animation.joints, animation.windows[k], pair)
+        r_cut = junction_step_ratio(cut.joints, cut.windows[k], pair)
+        assert r_blend < r_cut, (k, r_blend, r_cut)
+
+
+def test_animate_errors(tmp_path):
+    with pytest.raises(TypeError, match="Storyboard"):
+        animate_storyboard([StoryboardFrame("a person walks")])
+    with pytest.raises(ValueError, match="method"):
+        animate_storyboard(_board(), method="morph")
+    with pytest.raises(ValueError, match="seed"):
+        animate_storyboard(_board(), seed=-1)
