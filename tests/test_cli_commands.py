@@ -252,7 +252,7 @@ def test_generate_from_a_saved_sketch(tmp_path, capsys):
      "invalid int value: 'big' (see physlab evaluate inbetween --help)"),
     (["evaluate", "motion", "--windows", "x", "--control", "c.pt"],
      "invalid int value: 'x' (see physlab evaluate motion --help)"),
-    (["evaluate", "motion"], "required: --control"),
+    (["evaluate", "motion"], "--control is required"),
 ])
 def test_subcommand_errors_are_one_line(args, match, tmp_path, capsys, monkeypatch):
     monkeypatch.chdir(tmp_path)

@@ -86,7 +86,7 @@ def _check_transition(transition, upper=None):
     return int(transition)
 
 
-def place_after(prev, nxt, transition=TRANSITION):
+def place_after(prev, nxt, transition=TRANSITION, return_transform=False):
     """Move ``nxt`` so that it continues ``prev`` after a gap of ``transition`` frames.
 
     Rotation about the vertical through ``nxt``'s first pelvis by ``θ_prev − θ_next``
@@ -96,7 +96,8 @@ def place_after(prev, nxt, transition=TRANSITION):
     (each over its :data:`_SPEED_FRAMES` frames next to the gap). Heights are kept.
 
     prev : (Ta, 22, 3), nxt : (Tb, 22, 3) joints (m); transition : int >= 0 frames.
-    Returns (Tb, 22, 3), ``nxt`` placed.
+    Returns (Tb, 22, 3), ``nxt`` placed; with ``return_transform`` also ``(theta, offset)``
+    ((float rad, (3,) m) with ``placed = R_y(theta) nxt + offset``).
     """
     a = _check_clip(prev, "prev")
     b = _check_clip(nxt, "nxt")
@@ -109,6 +110,9 @@ def place_after(prev, nxt, transition=TRANSITION):
     vb = np.diff(b[:k + 1, 0], axis=0).mean(0) if len(b) > 1 else np.zeros(3)
     target = a[-1, 0] + (l + 1) * (va + vb) / 2
     shift = np.array([target[0] - b[0, 0, 0], 0.0, target[2] - b[0, 0, 2]])
+    if return_transform:      # R (x - pivot) + pivot + shift = R x + (pivot - R pivot + shift)
+        offset = pivot - _rotate_y(pivot[None, None], np.array([turn]))[0, 0] + shift
+        return b + shift, turn, offset
     return b + shift
 
 

@@ -246,15 +246,27 @@ class StoryboardAnimation:
     joints : (N, 22, 3) m, the whole animation (20 fps); clips : the generated clips
     (40, 22, 3) each, in their own canonical frame; segments : per frame, the slice of
     ``joints`` its clip occupies; transitions : per junction, the slice of the new frames;
-    windows : per junction, the slice the blending changed; seconds : wall times
-    (``generate`` per clip, ``blend`` per junction).
+    windows : per junction, the slice the blending changed; placements : per frame,
+    ``(theta, offset)`` with ``joints[segment] ≈ R_y(theta) clip + offset`` (exact outside the
+    blending windows); seconds : wall times (``generate`` per clip, ``blend`` per junction).
     """
     joints: np.ndarray
     clips: list
     segments: list
     transitions: list
     windows: list
+    placements: list = field(default_factory=list)
     seconds: dict = field(default_factory=dict)
+
+    def local(self, i, joints=None):
+        """``joints`` (default: the animation's frames of clip ``i``, (n, 22, 3)) moved back
+        into clip ``i``'s own frame, where its storyboard frame's conditions and camera
+        live: ``R_y(−theta) (x − offset)``."""
+        from .features import _rotate_y
+
+        theta, offset = self.placements[i]
+        x = self.joints[self.segments[i]] if joints is None else np.asarray(joints, float)
+        return _rotate_y(x - offset, np.full(len(x), -theta))
 
     def frame_at(self, k):
         """Index of the storyboard frame whose clip (or the transition into it) plays at
@@ -313,10 +325,12 @@ def animate_storyboard(storyboard, transition=TRANSITION, seed=0, progress=False
         next(it, None)
     motion = clips[0]
     segments, transitions, windows = [slice(0, len(motion))], [], []
+    placements = [(0.0, np.zeros(3))]
     opts = dict(blend_options or {})
     for i in range(1, n):
         gap = 0 if method == "concat" else transition
-        placed = place_after(motion, clips[i], gap)
+        placed, theta, offset = place_after(motion, clips[i], gap, return_transform=True)
+        placements.append((theta, offset))
         res = blend(motion, placed, transition=gap, method=method,
                     actions=(storyboard.frames[i - 1].action, storyboard.frames[i].action),
                     generator=gen, seed=int(seed) + i, **opts)
@@ -326,7 +340,7 @@ def animate_storyboard(storyboard, transition=TRANSITION, seed=0, progress=False
         segments.append(slice(res.transition.stop, len(motion)))
         blend_s.append(res.seconds)
         next(it, None)
-    return StoryboardAnimation(motion, clips, segments, transitions, windows,
+    return StoryboardAnimation(motion, clips, segments, transitions, windows, placements,
                                {"generate": gen_s, "blend": blend_s})
 
 

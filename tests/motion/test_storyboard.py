@@ -114,6 +114,15 @@ def test_three_frames_become_one_animation(animation):
     for w in a.windows:
         assert bone_length_variation(a.joints[w]) < 0.01
         assert floor_penetration(a.joints[w]) <= 0.01
+    # placements map each clip onto its segment (outside the blending windows exactly)
+    for i in range(3):
+        loc = a.local(i)
+        keep = np.ones(40, bool)
+        if i > 0:
+            keep[:10] = False
+        if i < 2:
+            keep[-10:] = False
+        assert np.allclose(loc[keep], a.clips[i][keep], atol=1e-9)
     # deterministic, and storyboard_to_motion returns the same joints
     again = storyboard_to_motion(_board(), transition=20, seed=3, **FAST)
     assert np.array_equal(again, a.joints)

@@ -6,10 +6,16 @@ from scipy.spatial.transform import Rotation, Slerp
 from physlab.motion import transitions
 from physlab.motion.export import TPOSE_OFFSETS
 from physlab.motion.skeleton import PARENTS, bone_lengths, euler_to_matrix, forward_kinematics
+import functools
+
 from physlab.motion.transitions import linear_transition, slerp_transition, squad_transition
 
 ALL = [linear_transition, slerp_transition, squad_transition]
-ROTATIONAL = [slerp_transition, squad_transition]
+#: SQUAD with the context's angular velocities as tangents (C1): the variant whose
+#: properties most tests below check; the default Shoemake tangents are tested at the end.
+squad_c = functools.partial(squad_transition, tangents="context")
+squad_c.__name__ = "squad_transition_context"
+ROTATIONAL = [slerp_transition, squad_c]
 L_SHOULDER, L_ELBOW = 16, 18
 
 
@@ -45,6 +51,11 @@ def _single_joint_clip(angles_deg, joint=L_SHOULDER, root=None):
     ang[:, joint, 0] = angles_deg
     root = np.tile([0.0, 0.95, 0.0], (T, 1)) if root is None else root
     return forward_kinematics(euler_to_matrix(ang, "ZXY"), TPOSE_OFFSETS, PARENTS, root)
+
+
+def _spin_motion(rate=0.35, T=51):
+    """The left upper arm swinging about z at ``rate`` rad/frame for T frames."""
+    return _single_joint_clip(np.degrees(rate) * np.arange(T))
 
 
 def _elbow_angle(x):
@@ -116,7 +127,7 @@ def test_slerp_angles_are_linear_squad_follows_the_context_velocity():
     s0, s1 = a0 + (m0 - (a1 - a0)) / 2, a1 - (m1 - (a1 - a0)) / 2
     u = 2 * h * (1 - h)
     naive = (1 - u) * (a0 + h * (a1 - a0)) + u * (s0 + h * (s1 - s0))
-    squad_angles = _elbow_angle(squad_transition(before, after, n))
+    squad_angles = _elbow_angle(squad_c(before, after, n))
     assert np.allclose(squad_angles, naive)
     assert abs(squad_angles[0] - 20.0 - 2.0) < 0.5                   # first step ≈ 2°, not 5°
     assert abs(70.0 - squad_angles[-1] - 6.0) < 0.5                  # last step ≈ 6°, not 5°
@@ -142,7 +153,7 @@ def test_slerp_pelvis_rotation_is_the_scipy_geodesic():
     expected = forward_kinematics(R, TPOSE_OFFSETS, PARENTS, p0 + h[:, None] * (p1 - p0))
     assert np.abs(slerp_transition(before, after, n) - expected).max() < 1e-9
     # SQUAD uses the context velocities, so it leaves the geodesic
-    assert np.abs(squad_transition(before, after, n) - expected).max() > 1e-3
+    assert np.abs(squad_c(before, after, n) - expected).max() > 1e-3
 
 
 def test_turning_through_180_degrees_takes_the_short_way():
@@ -201,7 +212,7 @@ def test_hermite_root_reproduces_constant_velocity():
     v = np.array([0.03, 0.0, 0.065])
     x = x - x[:, :1] + (np.array([0.0, 0.93, 0.0]) + np.arange(60)[:, None] * v)[:, None]
     before, truth, after = _cut(x, 20, 20)
-    assert np.abs(squad_transition(before, after, 20)[:, 0] - truth[:, 0]).max() < 1e-12
+    assert np.abs(squad_c(before, after, 20)[:, 0] - truth[:, 0]).max() < 1e-12
 
 
 def test_hermite_root_matches_the_cubic_with_context_velocities():
@@ -215,7 +226,7 @@ def test_hermite_root_matches_the_cubic_with_context_velocities():
     h = (np.arange(1, n + 1) / (n + 1))[:, None]
     cubic = ((2 * h**3 - 3 * h**2 + 1) * p0 + (h**3 - 2 * h**2 + h) * (n + 1) * v0
              + (-2 * h**3 + 3 * h**2) * p1 + (h**3 - h**2) * (n + 1) * v1)
-    out = squad_transition(before, after, n)
+    out = squad_c(before, after, n)
     assert np.abs(out[:, 0] - cubic).max() < 1e-12
     assert np.abs(out - (pose + cubic[:, None])).max() < 1e-9        # pose carried along
     lin = slerp_transition(before, after, n)[:, 0]                   # the simpler variant
@@ -250,7 +261,7 @@ def test_squad_is_c1_at_the_junctions_linear_and_slerp_are_not():
     x = _walk()
     before, _, after = _cut(x, 30, 20)
     max_acc = np.linalg.norm(np.diff(x, 2, axis=0), axis=-1).max()   # largest velocity change
-    jumps, ratios = _junction(before, squad_transition(before, after, 20), after)
+    jumps, ratios = _junction(before, squad_c(before, after, 20), after)
     for jump, ratio in zip(jumps, ratios):
         assert jump.max() < 0.6 * max_acc                            # ≈ 0.37 measured
         assert np.all((ratio > 1 / 1.5) & (ratio < 1.5))             # 0.84 .. 1.13 measured
@@ -267,10 +278,10 @@ def test_match_ends_joins_a_non_rigid_context():
     for j in range(1, 22):
         y[:, j] = y[:, PARENTS[j]] + 1.1 * (x[:, j] - x[:, PARENTS[j]])
     before, after = x[:30], y[50:]
-    rigid_jump = max(j.max() for j in _junction(x[:30], squad_transition(x[:30], x[50:], 20),
+    rigid_jump = max(j.max() for j in _junction(x[:30], squad_c(x[:30], x[50:], 20),
                                                 x[50:])[0])
-    loose = squad_transition(before, after, 20)
-    matched = squad_transition(before, after, 20, match_ends=True)
+    loose = squad_c(before, after, 20)
+    matched = squad_c(before, after, 20, match_ends=True)
     jump_loose = max(j.max() for j in _junction(before, loose, after)[0])
     jump_matched = max(j.max() for j in _junction(before, matched, after)[0])
     assert jump_matched < 2 * rigid_jump < jump_loose                # 1.4x, 4.5x measured
@@ -283,22 +294,25 @@ def test_match_ends_joins_a_non_rigid_context():
 
 def _gap_errors(period=1.1, n=20):
     """Mean per-joint position error (m) of the three fills over every gap phase of a gait
-    cycle: (phases, 3) for linear, slerp, squad; 10 context frames on each side."""
+    cycle: (phases, 4) for linear, slerp, squad (context tangents), squad (Shoemake's);
+    10 context frames on each side."""
     x = _walk(T=100, period=period)
     errs = []
     for start in range(20, 20 + int(round(20 * period))):
         before, truth, after = x[start - 10:start], x[start:start + n], x[start + n:start + n + 10]
-        errs.append([np.linalg.norm(fn(before, after, n) - truth, axis=-1).mean() for fn in ALL])
+        errs.append([np.linalg.norm(fn(before, after, n) - truth, axis=-1).mean()
+                     for fn in (linear_transition, slerp_transition, squad_c, squad_transition)])
     return np.array(errs)
 
 
 def test_squad_beats_linear_on_a_walking_gap():
-    errs = _gap_errors()                                             # (22, 3)
+    errs = _gap_errors()                                             # (22, 4)
     mean = errs.mean(axis=0)
-    assert mean[2] < 0.9 * mean[0]                                   # squad < linear
+    assert mean[2] < 0.9 * mean[0]                                   # C1 squad < linear
     assert np.mean(errs[:, 2] < errs[:, 0]) > 0.9                    # for nearly every phase
-    # fixed reference numbers (metres): linear, slerp, squad
-    assert np.allclose(mean, [0.1144591, 0.1144935, 0.0990218], atol=1e-6)
+    # fixed reference numbers (metres): linear, slerp, squad (context), squad (Shoemake):
+    # Shoemake's tangents forget the context's velocity, so they do no better than linear
+    assert np.allclose(mean, [0.1144591, 0.1144935, 0.0990218, 0.1153618], atol=1e-6)
 
 
 # ----------------------------------------------------------------------------- errors
@@ -326,3 +340,31 @@ def test_squad_needs_two_context_frames_on_each_side():
     with pytest.raises(ValueError, match="after needs at least 2 frames"):
         squad_transition(x[:3], x[9:], 3)
     assert slerp_transition(x[:1], x[9:], 3).shape == (3, 22, 3)     # slerp needs only one
+
+
+def test_default_shoemake_tangents_are_the_literal_formula_and_do_not_flip():
+    """Shoemake's inner points on the four keys (as if evenly spaced), checked against the
+    formula written out; on a joint spinning fast (0.35 rad/frame, as a generated wrist can)
+    the context tangents (x 21) pass π and the curve jumps, Shoemake's do not."""
+    from physlab.motion import transitions as tr
+
+    rng = np.random.default_rng(4)
+    q = rng.normal(size=(4, 22, 4))
+    q /= np.linalg.norm(q, axis=-1, keepdims=True)
+    qm, q0, q1, q2 = q
+    L = lambda a, b: tr._qlog(tr._qmul(tr._qconj(a), b))               # noqa: E731
+    s0 = tr._qmul(q0, tr._qexp(-(L(q0, q1) + L(q0, qm)) / 4))
+    s1 = tr._qmul(q1, tr._qexp(-(L(q1, q2) + L(q1, q0)) / 4))
+    m0, m1 = (L(q0, q1) - L(q0, qm)) / 2, (L(q1, q2) - L(q1, q0)) / 2
+    g0, g1 = tr._squad_inner_points(q0, q1, m0, m1)
+    same = lambda a, b: np.minimum(np.abs(a - b).max(-1), np.abs(a + b).max(-1))  # noqa: E731
+    assert same(g0, s0).max() < 1e-9 and same(g1, s1).max() < 1e-9
+    # a forearm spinning about its own axis fast in the context, pose otherwise still
+    x = _spin_motion(rate=0.35)
+    before, after = x[:10], x[31:]
+    step = lambda y: np.linalg.norm(np.diff(y, axis=0), axis=-1).max()   # noqa: E731
+    ctx = step(np.concatenate([before, squad_c(before, after, 20), after]))
+    default = step(np.concatenate([before, squad_transition(before, after, 20), after]))
+    assert default < 0.5 * ctx
+    with pytest.raises(ValueError, match="tangents"):
+        squad_transition(before, after, 20, tangents="catmull")
