@@ -169,6 +169,34 @@ class LabServer:
 
 
 # --------------------------------------------------------------------------- page helpers
+
+def write_scratch_notebook(path, source):
+    """A one-cell notebook (Python 3 kernel) at ``path`` running ``source``: the scratch
+    notebooks of the widget browser tests."""
+    import nbformat
+
+    nb = nbformat.v4.new_notebook()
+    nb.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3 (ipykernel)",
+                                 "language": "python"}
+    nb.cells = [nbformat.v4.new_code_cell(source)]
+    nbformat.write(nb, str(path))
+
+
+def run_scratch_notebook(page, lab, notebook):
+    """Open ``notebook`` (in the server's root) in JupyterLab, wait for an idle kernel and
+    run its first cell (Shift+Enter)."""
+    page.goto(f"{lab.url}/lab/tree/{notebook}?token={lab.token}", wait_until="domcontentloaded")
+    page.locator(".jp-Notebook .jp-Cell").first.wait_for(timeout=PAGE_TIMEOUT * 1000)
+    _wait_until(page, lambda: _kernel_idle(page), PAGE_TIMEOUT,
+                lambda: f"the kernel to be idle (status {_kernel_status(page)!r})")
+    page.locator(".jp-Notebook .jp-Cell").first.click()
+    page.keyboard.press("Shift+Enter")
+
+
+def widget_readout(box):
+    """The text of a physlab canvas widget's readout line (``.physlab-readout``)."""
+    return box.locator(".physlab-readout").inner_text().strip()
+
 def _wait_until(page, check, timeout, what, poll_ms=200, progress=None):
     """Poll ``check()`` (truthy result = done) until ``timeout`` seconds; fail saying ``what``
     (a string, or a callable giving one at failure time). ``check`` may raise AssertionError to

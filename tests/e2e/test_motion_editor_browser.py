@@ -23,7 +23,9 @@ import time
 import numpy as np
 import pytest
 
-from .test_lesson_widgets import (HARD_TIMEOUT, PAGE_TIMEOUT, STALL_TIMEOUT, UPDATE_TIMEOUT,
+from .test_lesson_widgets import (run_scratch_notebook, write_scratch_notebook,  # noqa: F401
+                                  widget_readout,
+                                  HARD_TIMEOUT, PAGE_TIMEOUT, STALL_TIMEOUT, UPDATE_TIMEOUT,
                                   _assert_no_errors, _check_errors_then, _draw, _in_browser,
                                   _kernel_idle, _kernel_status, _wait_until, lab)  # noqa: F401
 
@@ -50,17 +52,10 @@ editor"""
 
 
 def _write_notebook(path):
-    import nbformat
-
-    nb = nbformat.v4.new_notebook()
-    nb.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3 (ipykernel)",
-                                 "language": "python"}
-    nb.cells = [nbformat.v4.new_code_cell(CELL)]
-    nbformat.write(nb, str(path))
+    write_scratch_notebook(path, CELL)
 
 
-def _readout(box):
-    return box.locator(".physlab-readout").inner_text().strip()
+_readout = widget_readout
 
 
 def _wait_readout(page, box, pattern, what, timeout=UPDATE_TIMEOUT):
@@ -87,12 +82,7 @@ def test_motion_editor_drag_pelvis_regenerate_and_save(lab, tmp_path):
 
 def _drive_editor(page, lab, shots_dir):
     t0 = time.monotonic()
-    page.goto(f"{lab.url}/lab/tree/{NOTEBOOK}?token={lab.token}", wait_until="domcontentloaded")
-    page.locator(".jp-Notebook .jp-Cell").first.wait_for(timeout=PAGE_TIMEOUT * 1000)
-    _wait_until(page, lambda: _kernel_idle(page), PAGE_TIMEOUT,
-                lambda: f"the kernel to be idle (status {_kernel_status(page)!r})")
-    page.locator(".jp-Notebook .jp-Cell").first.click()
-    page.keyboard.press("Shift+Enter")
+    run_scratch_notebook(page, lab, NOTEBOOK)
     boxes = page.locator(BOX_SEL)
     _wait_until(page, lambda: _check_errors_then(page, lambda: boxes.count() == 1,
                                                  "running the scratch notebook"),

@@ -20,7 +20,9 @@ import time
 import numpy as np
 import pytest
 
-from .test_lesson_widgets import (HARD_TIMEOUT, PAGE_TIMEOUT, STALL_TIMEOUT, UPDATE_TIMEOUT,
+from .test_lesson_widgets import (run_scratch_notebook, write_scratch_notebook,  # noqa: F401
+                                  widget_readout,
+                                  HARD_TIMEOUT, PAGE_TIMEOUT, STALL_TIMEOUT, UPDATE_TIMEOUT,
                                   _assert_no_errors, _check_errors_then, _draw, _in_browser,
                                   _kernel_idle, _kernel_status, _wait_until, lab)  # noqa: F401
 
@@ -44,13 +46,7 @@ a"""
 
 
 def _write_notebook(path):
-    import nbformat
-
-    nb = nbformat.v4.new_notebook()
-    nb.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3 (ipykernel)",
-                                 "language": "python"}
-    nb.cells = [nbformat.v4.new_code_cell(CELL)]
-    nbformat.write(nb, str(path))
+    write_scratch_notebook(path, CELL)
 
 
 def _t_junctions(path):
@@ -71,8 +67,7 @@ def _click_target():
     return P[np.argmax(d)], OcclusionAnnotator(k1, pair.skeleton1, occlusions=[occ])
 
 
-def _readout(box):
-    return box.locator(".physlab-readout").inner_text().strip()
+_readout = widget_readout
 
 
 def _wait_readout(page, box, pattern, what, timeout=UPDATE_TIMEOUT):
@@ -94,12 +89,7 @@ def test_occlusion_annotator_click_t_junction_and_save(lab, tmp_path):
 def _drive_annotator(page, lab, shots_dir):
     t0 = time.monotonic()
     saved = lab.root / ANNOTATION
-    page.goto(f"{lab.url}/lab/tree/{NOTEBOOK}?token={lab.token}", wait_until="domcontentloaded")
-    page.locator(".jp-Notebook .jp-Cell").first.wait_for(timeout=PAGE_TIMEOUT * 1000)
-    _wait_until(page, lambda: _kernel_idle(page), PAGE_TIMEOUT,
-                lambda: f"the kernel to be idle (status {_kernel_status(page)!r})")
-    page.locator(".jp-Notebook .jp-Cell").first.click()
-    page.keyboard.press("Shift+Enter")
+    run_scratch_notebook(page, lab, NOTEBOOK)
     boxes = page.locator(BOX_SEL)
     _wait_until(page, lambda: _check_errors_then(page, lambda: boxes.count() == 1,
                                                  "running the scratch notebook"),

@@ -79,6 +79,10 @@ def test_junction_step_ratio_by_hand():
     assert junction_step_ratio(x, slice(1, 3), [clip, clip]) == pytest.approx(1.0)
     with pytest.raises(ValueError, match="window"):
         junction_step_ratio(x, slice(0, 2), [clip, clip])
+    # local reference: the largest step of each clip next to the junction (0.1 here)
+    assert junction_step_ratio(x, slice(4, 4), [clip, x[4:]], "local") == pytest.approx(4.0)
+    with pytest.raises(ValueError, match="reference"):
+        junction_step_ratio(x, slice(4, 4), [clip, clip], "mean")
 
 
 def test_inversion_blend_joins_two_generated_clips(gen):
