@@ -141,7 +141,7 @@ def _smoothstep(n):
 def blend(clip_a, clip_b, transition=TRANSITION, method="inversion", actions=None,
           generator=None, seed=0, steps=BLEND_STEPS, guidance=BLEND_GUIDANCE,
           guidance_scale=None, body_constraints=True, progress=False,
-          fixed_point=INVERSION_FIXED_POINT, init_weight=INIT_WEIGHT):
+          fixed_point=INVERSION_FIXED_POINT, init_weight=INIT_WEIGHT, guidance_space="x0"):
     """Join ``clip_a`` and ``clip_b`` (already placed, :func:`place_after`) by ``transition``
     new frames (module docstring).
 
@@ -159,6 +159,12 @@ def blend(clip_a, clip_b, transition=TRANSITION, method="inversion", actions=Non
         text-only default).
     body_constraints : rigid bones and feet on the floor for the new window
         (:func:`~physlab.motion.body.constrain_body`).
+    fixed_point : fixed-point refinements per inversion step (0: plain DDIM inversion).
+    init_weight : pull of the gap towards its linear initialisation in the guidance.
+    guidance_space : ``"x0"`` (optimise each step's x̂₀, no backpropagation through the
+        network: cheap) or ``"network"`` (Eq. (18)'s form: optimise ``z_t`` through the
+        network, :meth:`~physlab.motion.sampling.Generator._guide_network`) for the per-step
+        guidance; the final step's guidance is on x̂₀ either way.
     progress : tqdm bars of the inversion and the denoising.
 
     Returns
@@ -186,9 +192,11 @@ def blend(clip_a, clip_b, transition=TRANSITION, method="inversion", actions=Non
         j = np.concatenate([a, fill, b])
         s = slice(len(a), len(a) + l)
         return BlendResult(j, s, s, method, time.perf_counter() - t0)
+    if guidance_space not in ("x0", "network"):
+        raise ValueError(f"guidance_space must be 'x0' or 'network', got {guidance_space!r}")
     j, window = _inversion_blend(a, b, l, actions, generator, seed, steps, guidance,
                                  guidance_scale, body_constraints, progress, int(fixed_point),
-                                 float(init_weight))
+                                 float(init_weight), guidance_space)
     return BlendResult(j, slice(len(a), len(a) + l), window, method, time.perf_counter() - t0)
 
 
@@ -204,7 +212,7 @@ def _check_guidance(guidance):
 
 
 def _inversion_blend(a, b, l, actions, generator, seed, steps, guidance, guidance_scale,
-                     body_constraints, progress, fixed_point, init_weight):
+                     body_constraints, progress, fixed_point, init_weight, space):
     """Sketch2Anim supp. D on a window of the model's length; returns (joints, window)."""
     import torch
 
@@ -269,11 +277,15 @@ def _inversion_blend(a, b, l, actions, generator, seed, steps, guidance, guidanc
             for i, t in enumerate(_progress(timesteps.tolist(), progress, "blend denoising")):
                 t_prev = int(timesteps[i + 1]) if i + 1 < len(timesteps) else -1
                 t_in = torch.tensor([t])
-                out = gen._predict(x, t_in, text, None, w)                        # CFG
                 iters = final if t_prev == -1 else per_step
-                if iters:
-                    out = gen._guide(out, x, t_in, None, None, iters, 0.0, "lbfgs",
-                                     loss_fn=g_m)                                 # Eq. (18)
+                if iters and space == "network" and t_prev != -1:                # Eq. (18)
+                    x, out = gen._guide_network(x, t_in, text, None, w, None, iters,
+                                                loss_fn=g_m)
+                else:
+                    out = gen._predict(x, t_in, text, None, w)                    # CFG
+                    if iters:
+                        out = gen._guide(out, x, t_in, None, None, iters, 0.0, "lbfgs",
+                                         loss_fn=g_m)                             # Eq. (18)
                 x, x0_hat = sched.ddim_step(out, t, t_prev, x)
     out = gen.stats.denormalize(x0_hat[0].double().numpy())
     win = decode_motion(out, cfg.representation)                                  # (N, 22, 3)

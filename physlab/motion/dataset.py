@@ -548,15 +548,18 @@ def condition_from_window(window, t_r=None, keypose_at="first", joints=TRAJECTOR
                      mask=mask, joints=tuple(TRAJECTORY_JOINTS[c] for c in cols), t_r=t_r)
 
 
-def random_condition(window, rng, min_t_r=5):
+def random_condition(window, rng, min_t_r=5, single_joint=0.0):
     """A random training condition: keypose at the first or last frame (p = 1/2), one of
-    the 63 :data:`JOINT_COMBINATIONS` (uniform) and ``t_r`` uniform in ``min_t_r .. N``.
+    the 63 :data:`JOINT_COMBINATIONS` (uniform; with probability ``single_joint`` one of the
+    six single joints instead, uniform) and ``t_r`` uniform in ``min_t_r .. N``.
 
     Parameters
     ----------
     window : (N, 22, 3) float array.
     rng : numpy Generator (``np.random.default_rng(seed)``).
     min_t_r : int in ``1 .. N``.
+    single_joint : float in [0, 1], extra share of single-joint strokes (the "Average"
+        protocol's conditions; uniform over the 63 combinations they are 6 / 63 ≈ 10 %).
 
     Returns
     -------
@@ -565,10 +568,15 @@ def random_condition(window, rng, min_t_r=5):
     N = len(np.asarray(window))
     if not 1 <= int(min_t_r) <= N:
         raise ValueError(f"min_t_r must lie in 1..{N}, got {min_t_r}")
-    return condition_from_window(
-        window, t_r=int(rng.integers(min_t_r, N + 1)),
-        keypose_at="first" if rng.random() < 0.5 else "last",
-        joints=JOINT_COMBINATIONS[int(rng.integers(len(JOINT_COMBINATIONS)))])
+    if not 0.0 <= float(single_joint) <= 1.0:
+        raise ValueError(f"single_joint must be a probability in [0, 1], got {single_joint}")
+    t_r = int(rng.integers(min_t_r, N + 1))
+    keypose_at = "first" if rng.random() < 0.5 else "last"
+    combo = JOINT_COMBINATIONS[int(rng.integers(len(JOINT_COMBINATIONS)))]
+    if single_joint and rng.random() < single_joint:    # drawn after the others: with
+        combo = (TRAJECTORY_JOINTS[int(rng.integers(len(TRAJECTORY_JOINTS)))],)  # p = 0 the
+    return condition_from_window(window, t_r=t_r, keypose_at=keypose_at,        # stream is as
+                                 joints=combo)                                   # before
 
 
 # ----------------------------------------------------------------------------- split

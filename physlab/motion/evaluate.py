@@ -83,7 +83,7 @@ import numpy as np
 
 from physlab._io import atomic_write_text
 
-from .blend import BLEND_METHODS, TRANSITION, blend, junction_step_ratio
+from .blend import TRANSITION, blend, junction_step_ratio
 from .dataset import (
     ACTION_PHRASES,
     BANDAI_NAMCO_ATTRIBUTION,
@@ -110,6 +110,7 @@ from .metrics import (
 
 __all__ = [
     "phase_change_score", "blending_windows", "evaluate_blending", "format_blending_table",
+    "BLEND_ROWS",
     "COLUMNS",
     "EVALUATOR_COLUMNS",
     "MIN_T_R",
@@ -859,10 +860,17 @@ def blending_windows(windows=32, pool=256, data_root=None, context=10):
             "reference_joints": x[rest], "score": s[order]}
 
 
-def evaluate_blending(windows=32, transition=TRANSITION, methods=BLEND_METHODS[1:], seed=0,
+#: Rows of :func:`evaluate_blending`: name -> keywords of :func:`~physlab.motion.blend.blend`.
+BLEND_ROWS = {"linear": {"method": "linear"}, "slerp": {"method": "slerp"},
+              "squad": {"method": "squad"}, "inversion": {"method": "inversion"},
+              "inversion, z_t guidance": {"method": "inversion", "guidance_space": "network"}}
+
+
+def evaluate_blending(windows=32, transition=TRANSITION, methods=tuple(BLEND_ROWS), seed=0,
                       data_root=None, evaluator="default", generator=None, progress=True,
                       blend_options=None):
-    """Table A4 analogue (module docstring). Returns ``{row_name: {metric: value}}`` with a
+    """Table A4 analogue (module docstring); ``methods``: names of :data:`BLEND_ROWS`.
+    Returns ``{row_name: {metric: value}}`` with a
     ``"real"`` row first."""
     from .sampling import _progress
 
@@ -905,13 +913,13 @@ def evaluate_blending(windows=32, transition=TRANSITION, methods=BLEND_METHODS[1
 
     rows = {"real": row(gt, 0.0)}
     for method in methods:
-        if method not in BLEND_METHODS or method == "concat":
-            raise ValueError(f"methods must come from {BLEND_METHODS[1:]}, got {method!r}")
+        if method not in BLEND_ROWS:
+            raise ValueError(f"methods must come from {tuple(BLEND_ROWS)}, got {method!r}")
         out, t0 = [], time.perf_counter()
         for i in _progress(range(n), progress, method):
-            res = blend(gt[i, :ca], gt[i, ca + l:], transition=l, method=method,
+            res = blend(gt[i, :ca], gt[i, ca + l:], transition=l,
                         actions=(data["text"][i], data["text"][i]), generator=generator,
-                        seed=seed + i, **(blend_options or {}))
+                        seed=seed + i, **{**BLEND_ROWS[method], **(blend_options or {})})
             out.append(res.joints)
         rows[method] = row(np.stack(out), (time.perf_counter() - t0) / n)
     return rows

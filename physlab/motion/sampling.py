@@ -379,7 +379,7 @@ class Generator:
         return a.sqrt() * eps - (1 - a).sqrt() * x0g                      # v
 
     def _guide_network(self, x, t, a, cond, w, joints_target, iters, optimizer="lbfgs",
-                       w_c=1.0, sketch=None, net_cond=None):
+                       w_c=1.0, sketch=None, net_cond=None, loss_fn=None):
         """Sketch2Anim's inference guidance (supp. C, Eq. (15), in 3D): move the noisy sample
         ``z_t`` itself so that the network's clean estimate ``x̂₀(z_t)`` meets the conditions,
         ``z_t ← argmin G(x̂₀(z_t))`` by ``iters`` L-BFGS iterations (or Adam steps) with
@@ -387,7 +387,8 @@ class Generator:
         re-plans the whole body around the targets (no joint is dragged alone), at the cost
         of one forward and backward pass per iteration. ``net_cond``: the condition the
         network sees, if it differs from the 3D ``cond`` the losses read (a drawing through the
-        2D encoders). Returns ``(z_t, network output)``."""
+        2D encoders); ``loss_fn(joints)`` adds a term on the decoded joints (as in
+        :meth:`_guide`). Returns ``(z_t, network output)``."""
         from .guidance import control_losses, sketch_losses
 
         mean = torch.as_tensor(self.stats.mean, dtype=x.dtype)
@@ -407,9 +408,12 @@ class Generator:
                 g = g + control_losses(x0, target_tr, cond, mean, std, rep)[0]   # Eq. (6)
             if has_key:
                 g = g + control_losses(x0, target_key, cond, mean, std, rep)[1]  # Eq. (8)
-            if sketch is not None:                                           # Eq. (16)
-                g = g + sum(sketch_losses(features_to_joints_torch(x0 * std + mean,
-                                                                   representation=rep), sketch))
+            if sketch is not None or loss_fn is not None:
+                joints = features_to_joints_torch(x0 * std + mean, representation=rep)
+                if sketch is not None:                                       # Eq. (16)
+                    g = g + sum(sketch_losses(joints, sketch))
+                if loss_fn is not None:
+                    g = g + loss_fn(joints)
             g.backward()
             return g
 

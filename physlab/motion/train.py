@@ -176,6 +176,8 @@ class TrainConfig:
     drop_keypose: float = 0.1       # p(no keypose) in a control-stage condition (trajectories
                                     # only), so any subset of conditions can be given
     drop_trajectory: float = 0.1    # p(no trajectory) (keypose only); never both
+    single_joint: float = 0.0       # extra p(a single-joint stroke) in a random condition
+                                    # (the "Average" protocol's kind; uniform: 6/63)
     single_controlnet: bool = False  # Table 2 ablation: one ControlNet for both conditions
     direct_2d: bool = False         # control stage on drawn (projected) conditions through 2D
                                     # encoders from the start: Table 1's direct 2D baseline
@@ -215,7 +217,8 @@ class TrainConfig:
                 raise ValueError(f"{name} must be >= 1, got {getattr(self, name)}")
         for name in ("lr", "min_lr", "weight_decay", "grad_clip", "lambda_tr", "lambda_key",
                      "lambda_vel", "warmup", "seed", "num_threads", "max_clips",
-                     "cond_drop_prob", "drop_keypose", "drop_trajectory", "lambda_match",
+                     "cond_drop_prob", "drop_keypose", "drop_trajectory", "single_joint",
+                     "lambda_match",
                      "lambda_recon", "lambda_contrast", "tau", "sketch_noise"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
@@ -233,6 +236,9 @@ class TrainConfig:
         if not 0 <= self.num_threads <= 256:
             raise ValueError(f"num_threads must be in 0..256 (0 = automatic), got "
                              f"{self.num_threads}")
+        if not 0 <= self.single_joint <= 1:
+            raise ValueError(f"single_joint must be a probability in [0, 1], got "
+                             f"{self.single_joint}")
         if not (0 <= self.drop_keypose and 0 <= self.drop_trajectory
                 and self.drop_keypose + self.drop_trajectory <= 1):
             raise ValueError(f"drop_keypose and drop_trajectory must be >= 0 with a sum <= 1, "
@@ -334,14 +340,16 @@ def prepare_data(cfg: TrainConfig, stats: FeatureStats | None = None, cache=None
             "train_takes": train_takes}
 
 
-def condition_batch(windows, rng, min_t_r=5, drop_keypose=0.0, drop_trajectory=0.0):
+def condition_batch(windows, rng, min_t_r=5, drop_keypose=0.0, drop_trajectory=0.0,
+                    single_joint=0.0):
     """Random Sketch2Anim training conditions (:func:`random_condition`) of a batch.
 
     Parameters
     ----------
     windows : (B, 40, 22, 3) float array of canonical windows.
     rng : numpy Generator.
-    min_t_r : shortest trajectory (frames).
+    min_t_r : shortest trajectory (frames); single_joint : extra share of single-joint
+        strokes (:func:`~physlab.motion.dataset.random_condition`).
     drop_keypose, drop_trajectory : probabilities that a sample has no keypose (its
         ``keypose_mask`` is False) or no trajectory (its ``traj_mask`` is all False); the two
         events exclude each other, so every sample keeps a condition.
@@ -356,7 +364,7 @@ def condition_batch(windows, rng, min_t_r=5, drop_keypose=0.0, drop_trajectory=0
         raise ValueError(f"windows must have shape (B, N, {len(JOINT_NAMES)}, 3), got {w.shape}")
     if not np.all(np.isfinite(w)):
         raise ValueError("windows contain NaN or inf")
-    cs = [random_condition(x, rng, min_t_r=min_t_r) for x in w]
+    cs = [random_condition(x, rng, min_t_r=min_t_r, single_joint=single_joint) for x in w]
     u = rng.random(len(cs))
     has_key = u >= drop_keypose                                             # (B,)
     has_traj = (u < drop_keypose) | (u >= drop_keypose + drop_trajectory)  # never both dropped
@@ -614,7 +622,8 @@ def train(**kwargs):
                     loss = loss + cfg.lambda_vel * l_vel
                     parts = {"vel": l_vel.item()}
             elif cfg.stage == "align":
-                cond = condition_batch(joints_np[idx.numpy()], rng, cfg.min_t_r)
+                cond = condition_batch(joints_np[idx.numpy()], rng, cfg.min_t_r,
+                                       single_joint=cfg.single_joint)
                 sketch = sketch_batch(cond, rng, noise=cfg.sketch_noise)
 
                 def generation_loss(out, idx=idx, cond=cond):                    # Eq. (9)
@@ -631,7 +640,7 @@ def train(**kwargs):
                 parts = {k: v.item() for k, v in terms.items()}
             else:
                 cond = condition_batch(joints_np[idx.numpy()], rng, cfg.min_t_r,
-                                       cfg.drop_keypose, cfg.drop_trajectory)
+                                       cfg.drop_keypose, cfg.drop_trajectory, cfg.single_joint)
                 net_cond = ({**cond, **sketch_batch(cond, rng, noise=cfg.sketch_noise)}
                             if cfg.direct_2d else cond)
                 out_ = net(x_t, t, a, net_cond, drop)

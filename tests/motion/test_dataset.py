@@ -222,6 +222,26 @@ def test_condition_joint_subsets_and_defaults():
     assert 5 <= c1.t_r <= 40 and c1.mask.sum() == c1.t_r * len(c1.joints)
 
 
+def test_random_condition_single_joint_share():
+    """single_joint = p adds single-joint strokes: their share is 6/63 + p (1 - 6/63); p = 0
+    draws exactly what it drew before the option existed (same random stream)."""
+    window = _motion(40, 5)
+    rng_a, rng_b = np.random.default_rng(3), np.random.default_rng(3)
+    for _ in range(20):
+        a, b = random_condition(window, rng_a), random_condition(window, rng_b, single_joint=0.0)
+        assert a.joints == b.joints and a.t_r == b.t_r and a.key_frame == b.key_frame
+    rng = np.random.default_rng(0)
+    n = 4000
+    singles = np.mean([len(random_condition(window, rng, single_joint=0.5).joints) == 1
+                       for _ in range(n)])
+    expected = 6 / 63 + 0.5 * (1 - 6 / 63)
+    assert abs(singles - expected) < 4 * np.sqrt(expected * (1 - expected) / n)
+    assert all(len(random_condition(window, rng, single_joint=1.0).joints) == 1
+               for _ in range(50))
+    with pytest.raises(ValueError, match="single_joint"):
+        random_condition(window, rng, single_joint=1.5)
+
+
 @pytest.mark.parametrize("kwargs, message", [
     (dict(t_r=0), r"t_r must be an integer in 1..40"),
     (dict(t_r=41), r"t_r must be an integer in 1..40"),

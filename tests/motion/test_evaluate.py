@@ -319,3 +319,29 @@ def test_sketch_metrics_analytic():
     assert r["trajectory_error_2d"] == pytest.approx(0.2)
     assert r["keypose_mpjpe_2d"] == pytest.approx(0.0, abs=1e-12)
     assert r["trajectory_error_3d"] == pytest.approx(0.1)
+
+
+def test_blending_table_on_phase_change_windows(real_data):
+    """Table A4 analogue on 8 held-out windows (no FID: fast): the real row is exact, the
+    windows chosen are those that change most, the inversion blend is rigid and on the floor
+    while the linear blend shrinks bones, and the table prints every row."""
+    from physlab.motion.evaluate import (blending_windows, evaluate_blending,
+                                         format_blending_table, phase_change_score)
+
+    torch.set_num_threads(1)
+    data = blending_windows(8, pool=64)
+    assert data["joints"].shape == (8, 40, 22, 3) and len(data["text"]) == 8
+    rest = phase_change_score(data["reference_joints"])
+    assert data["score"].min() >= np.median(rest)                  # the top of the pool
+    assert np.all(np.diff(data["score"]) <= 0)
+    rows = evaluate_blending(windows=8, methods=("linear", "inversion"), evaluator=None,
+                             progress=False)
+    assert list(rows) == ["real", "linear", "inversion"]
+    assert rows["real"]["MPJPE"] == 0.0 and rows["real"]["bones"] < 1e-3
+    assert rows["inversion"]["bones"] < 1e-3 < rows["linear"]["bones"]
+    assert rows["inversion"]["floor"] == 0.0
+    assert rows["inversion"]["MPJPE"] < 0.3                        # no detour (G_m + pull)
+    table = format_blending_table(rows)
+    assert table.count("\n| ") == 5 and "| inversion |" in table       # header + 4 rows
+    with pytest.raises(ValueError, match="methods must come from"):
+        evaluate_blending(windows=8, methods=("morph",), evaluator=None, progress=False)
