@@ -146,6 +146,10 @@ def lesson_blending_table(methods=("linear", "slerp", "squad", "inversion"),
     gt = np.stack([lesson_window(k)[0] for k in range(6)])
     texts = [lesson_window(k)[1] for k in range(6)]
     T = gt.shape[1]
+    if isinstance(transition, bool) or not isinstance(transition, (int, np.integer)) \
+            or not 1 <= transition <= T - 6:
+        raise ValueError(f"transition must be an integer in 1..{T - 6} (3 context frames a "
+                         f"side for the jerk), got {transition!r}")
     ca = (T - transition) // 2
     lo, hi = ca - 2, ca + transition + 2
 

@@ -24,10 +24,15 @@ next clip starts wherever and however it was generated. Two steps join them:
 
 Differences from the paper, all measured in lesson 11 / ``python -m physlab.motion.evaluate
 --blending``: physlab's model has a fixed 40-frame window, so the blending window is 40
-frames centred on the gap (the paper's MLD latent takes longer motions); the guidance works
-on x̂₀ of each step (:meth:`~physlab.motion.sampling.Generator._guide`, no backpropagation
-through the network), not on z_t; the combined action ``a_{p+q}`` is the mean of the two
-action embeddings (no new text to encode).
+frames centred on the gap (the paper's MLD latent takes longer motions); by default the
+guidance works on x̂₀ of each step (:meth:`~physlab.motion.sampling.Generator._guide`, no
+backpropagation through the network; ``guidance_space="network"`` is the paper's z_t form,
+3.5x slower, as smooth); the combined action ``a_{p+q}`` is the mean of the two action
+embeddings (no new text to encode); and the guidance also pulls the gap towards its linear
+initialisation (:data:`INIT_WEIGHT`), because the shipped model does not reconstruct what it
+inverts (invert + denoise without guidance: 0.34–0.44 m from the input; part of that is the
+schedule, whose first levels are nearly noise-free so an x̂₀-network's ε̂ amplifies its
+error ~24x: an *exact* Gaussian x̂₀-model round-trips only to 0.63 with these settings).
 """
 from __future__ import annotations
 
@@ -152,14 +157,17 @@ def blend(clip_a, clip_b, transition=TRANSITION, method="inversion", actions=Non
     method : one of :data:`BLEND_METHODS`.
     actions : ``(text_a, text_b)`` action texts, needed by ``"inversion"``.
     generator : a :class:`~physlab.motion.sampling.Generator` (default: the shipped one),
-        ``"inversion"`` only; seed : int (the inversion is deterministic; the seed only
-        matters for ties); steps : DDIM steps of inversion and denoising.
+        ``"inversion"`` only; seed : int, unused (the inversion and the DDIM denoising are
+        deterministic; kept so that callers can pass one per junction); steps : DDIM steps
+        of inversion and denoising.
     guidance : ``(per_step, final)`` L-BFGS iterations of the G_m guidance, Eq. (18).
     guidance_scale : classifier-free guidance w on the combined text (None: the generator's
         text-only default).
     body_constraints : rigid bones and feet on the floor for the new window
         (:func:`~physlab.motion.body.constrain_body`).
-    fixed_point : fixed-point refinements per inversion step (0: plain DDIM inversion).
+    fixed_point : int >= 0, fixed-point refinements per inversion step (0: plain DDIM
+        inversion, the default; with the shipped x̂₀-model and schedule more refinements
+        make the round trip worse, see :meth:`~physlab.motion.diffusion.NoiseScheduler.invert`).
     init_weight : pull of the gap towards its linear initialisation in the guidance.
     guidance_space : ``"x0"`` (optimise each step's x̂₀, no backpropagation through the
         network: cheap) or ``"network"`` (Eq. (18)'s form: optimise ``z_t`` through the
@@ -195,8 +203,8 @@ def blend(clip_a, clip_b, transition=TRANSITION, method="inversion", actions=Non
     if guidance_space not in ("x0", "network"):
         raise ValueError(f"guidance_space must be 'x0' or 'network', got {guidance_space!r}")
     j, window = _inversion_blend(a, b, l, actions, generator, seed, steps, guidance,
-                                 guidance_scale, body_constraints, progress, int(fixed_point),
-                                 float(init_weight), guidance_space)
+                                 guidance_scale, body_constraints, progress, fixed_point,
+                                 init_weight, guidance_space)
     return BlendResult(j, slice(len(a), len(a) + l), window, method, time.perf_counter() - t0)
 
 
@@ -214,6 +222,8 @@ def _check_guidance(guidance):
 def _inversion_blend(a, b, l, actions, generator, seed, steps, guidance, guidance_scale,
                      body_constraints, progress, fixed_point, init_weight, space):
     """Sketch2Anim supp. D on a window of the model's length; returns (joints, window)."""
+    import math
+
     import torch
 
     from .body import clip_bone_lengths, constrain_body
@@ -226,6 +236,17 @@ def _inversion_blend(a, b, l, actions, generator, seed, steps, guidance, guidanc
         raise ValueError(f"method 'inversion' needs actions=(text_a, text_b), the two clips' "
                          f"action texts, got {actions!r}")
     per_step, final = _check_guidance(guidance)
+    if not (math.isfinite(init_weight) and init_weight >= 0):
+        raise ValueError(f"init_weight must be a finite number >= 0, got {init_weight!r}")
+    if isinstance(fixed_point, bool) or not isinstance(fixed_point, (int, np.integer)) \
+            or fixed_point < 0:
+        raise ValueError(f"fixed_point must be an integer >= 0, got {fixed_point!r}")
+    if guidance_scale is not None and not (math.isfinite(guidance_scale)
+                                           and guidance_scale >= 0):
+        raise ValueError(f"guidance_scale must be None or a finite number >= 0, got "
+                         f"{guidance_scale!r}")
+    if not isinstance(body_constraints, (bool, np.bool_)):
+        raise TypeError(f"body_constraints must be True or False, got {body_constraints!r}")
     if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps < 1:
         raise ValueError(f"steps must be an integer >= 1, got {steps!r}")
     gen = generator if generator is not None else load_generator()
@@ -258,7 +279,7 @@ def _inversion_blend(a, b, l, actions, generator, seed, steps, guidance, guidanc
     gap = np.r_[ca:N - cb]
     init_gap = torch.tensor(wc[gap], dtype=torch.float32)[None]                   # (1, l, 22, 3)
 
-    def g_m(joints):                                   # supp. Eq. (18)'s G_m, metres²
+    def g_m(joints):               # supp. Eq. (18)'s G_m (metres²) + physlab's pull to the init
         g = ((joints[:, keep] - target) ** 2).sum(-1).mean()
         if init_weight:                                # physlab: stay near the blend
             g = g + init_weight * ((joints[:, gap] - init_gap) ** 2).sum(-1).mean()
@@ -267,7 +288,6 @@ def _inversion_blend(a, b, l, actions, generator, seed, steps, guidance, guidanc
     sched = gen.scheduler
     drop = torch.tensor([False])
     freq = min(TEXT_FREQUENCIES, cfg.smooth_basis) or None
-    torch.manual_seed(int(seed))
     with gen._frequencies(freq):
         z = sched.invert(lambda x, t, c: gen.denoiser(x, t, text, drop), x0, steps=int(steps),
                          progress=progress, fixed_point=fixed_point)              # Eq. (17)
@@ -325,6 +345,11 @@ def junction_step_ratio(joints, window, clips, reference="median"):
     junction, the second starts there). Returns float.
     """
     x = _check_clip(joints, "joints", 2)
+    if not isinstance(window, slice) or window.start is None or window.stop is None:
+        raise ValueError(f"window must be a slice with a start and a stop (e.g. "
+                         f"BlendResult.window), got {window!r}")
+    if len(clips) != 2:
+        raise ValueError(f"clips must be the two clips the junction joins, got {len(clips)}")
     start, stop = window.start, window.stop
     if not 1 <= start <= stop <= len(x) - 1:
         raise ValueError(f"window must lie inside the motion with a frame on each side, got "
@@ -332,12 +357,13 @@ def junction_step_ratio(joints, window, clips, reference="median"):
     if reference not in ("median", "local"):
         raise ValueError(f"reference must be 'median' or 'local', got {reference!r}")
 
-    def steps(c):
-        return np.linalg.norm(np.diff(_check_clip(c, "clips", 2), axis=0), axis=-1).max(axis=-1)
+    def steps(c, name):
+        return np.linalg.norm(np.diff(_check_clip(c, name, 2), axis=0), axis=-1).max(axis=-1)
 
-    step = steps(x)                                                           # (T-1,)
+    step = np.linalg.norm(np.diff(x, axis=0), axis=-1).max(axis=-1)            # (T-1,)
     if reference == "median":
-        ref = np.median(np.concatenate([steps(c) for c in clips]))
+        ref = np.median(np.concatenate([steps(c, f"clips[{i}]") for i, c in enumerate(clips)]))
     else:
-        ref = max(steps(clips[0][-21:]).max(), steps(clips[1][:21]).max())
+        ref = max(steps(np.asarray(clips[0])[-21:], "clips[0]").max(),
+                  steps(np.asarray(clips[1])[:21], "clips[1]").max())
     return float(step[start - 1:max(stop, start)].max() / max(ref, 1e-9))

@@ -49,6 +49,12 @@ def extract_conditions(joints, keypose_at="first", trajectory_joints=("pelvis",)
     ``keypose_at`` — keywords of :func:`~physlab.motion.generate`.
     """
     x = _joints(joints)
+    if isinstance(trajectory_joints, str):
+        raise ValueError(f"trajectory_joints must be a sequence of joint names such as "
+                         f"('pelvis',), got the string {trajectory_joints!r}")
+    if frames is not None and (isinstance(frames, bool)
+                               or not isinstance(frames, (int, np.integer))):
+        raise ValueError(f"frames must be None or an integer in 1..{N_FRAMES}, got {frames!r}")
     if len(x) != N_FRAMES:
         raise ValueError(f"joints must be a {N_FRAMES}-frame clip, got {len(x)} frames")
     if keypose_at not in KEYPOSE_AT:
@@ -66,6 +72,23 @@ def extract_conditions(joints, keypose_at="first", trajectory_joints=("pelvis",)
             "trajectories_3d": {n: x[span, joint_index(n)].copy() for n in trajectory_joints}}
 
 
+def _trajectory(trajectory, name="trajectory"):
+    p = np.asarray(trajectory, dtype=float)
+    if p.ndim != 2 or p.shape[1] != 3 or len(p) < 1:
+        raise ValueError(f"{name} must be a (t_r, 3) array of positions (m), got shape "
+                         f"{p.shape}")
+    if not np.all(np.isfinite(p)):
+        raise ValueError(f"{name} contains NaN or inf")
+    return p
+
+
+def _point(point, name="point"):
+    q = np.asarray(point, dtype=float)
+    if q.shape != (3,) or not np.all(np.isfinite(q)):
+        raise ValueError(f"{name} must be a finite (3,) position in metres, got {point!r}")
+    return q
+
+
 def drag_trajectory(trajectory, index, point, radius=DRAG_RADIUS):
     """Move sample ``index`` of a trajectory to ``point`` and its neighbours along with it,
     by ``exp(−(k − index)² / (2 (radius/2)²))`` of the displacement (so a drag bends the path
@@ -73,14 +96,12 @@ def drag_trajectory(trajectory, index, point, radius=DRAG_RADIUS):
 
     trajectory : (t_r, 3) m; index : int; point : (3,) m. Returns a new (t_r, 3) array.
     """
-    p = np.asarray(trajectory, dtype=float)
-    if p.ndim != 2 or p.shape[1] != 3 or len(p) < 1:
-        raise ValueError(f"trajectory must be a (t_r, 3) array, got shape {p.shape}")
+    p = _trajectory(trajectory)
+    if isinstance(index, bool) or not isinstance(index, (int, np.integer)):
+        raise ValueError(f"index must be an integer sample index, got {index!r}")
     if not -len(p) <= int(index) < len(p):
         raise ValueError(f"index {index} is outside the trajectory's {len(p)} samples")
-    q = np.asarray(point, dtype=float)
-    if q.shape != (3,) or not np.all(np.isfinite(q)):
-        raise ValueError(f"point must be a finite (3,) position in metres, got {point!r}")
+    q = _point(point)
     i = int(index) % len(p)
     if radius < 0:
         raise ValueError(f"radius must be >= 0 samples, got {radius}")
@@ -96,15 +117,22 @@ def move_joint(keypose, joint, point):
     k = np.array(keypose, dtype=float)
     if k.shape != (len(JOINT_NAMES), 3):
         raise ValueError(f"keypose must be a ({len(JOINT_NAMES)}, 3) array, got {k.shape}")
-    j = joint_index(joint) if isinstance(joint, str) else int(joint)
-    k[j] = np.asarray(point, dtype=float)
+    if isinstance(joint, str):
+        j = joint_index(joint)
+    elif isinstance(joint, (int, np.integer)) and not isinstance(joint, bool) \
+            and 0 <= joint < len(JOINT_NAMES):
+        j = int(joint)
+    else:
+        raise ValueError(f"joint must be a joint name or an index in 0..{len(JOINT_NAMES) - 1}, "
+                         f"got {joint!r}")
+    k[j] = _point(point)
     return k
 
 
 def reverse_trajectory(trajectory):
     """The path walked the other way round, starting where it started: ``p_0 − (p_k − p_0)``
     reflected through the start (Fig. 13's "reverse the trajectory"), heights kept."""
-    p = np.asarray(trajectory, dtype=float)
+    p = _trajectory(trajectory)
     out = 2 * p[:1] - p
     out[:, 1] = p[:, 1]
     return out

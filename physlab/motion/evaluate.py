@@ -836,6 +836,12 @@ def phase_change_score(joints, context=10):
 
     joints : (B, T, 22, 3). Returns (B,) float."""
     x = np.asarray(joints, dtype=float)
+    if x.ndim != 4 or x.shape[2:] != (22, 3):
+        raise ValueError(f"joints must be a (B, T, 22, 3) batch of windows, got {x.shape}")
+    if isinstance(context, bool) or not isinstance(context, (int, np.integer)) \
+            or not 2 <= context <= x.shape[1] // 2:
+        raise ValueError(f"context must be an integer in 2..T/2 = {x.shape[1] // 2}, got "
+                         f"{context!r}")
     v = np.linalg.norm(np.diff(x, axis=1), axis=-1).mean(-1)                # (B, T-1)
     speed = np.abs(v[:, :context - 1].mean(1) - v[:, -(context - 1):].mean(1))
     rel = x - x[:, :, :1]
@@ -874,12 +880,19 @@ def evaluate_blending(windows=32, transition=TRANSITION, methods=tuple(BLEND_ROW
     ``"real"`` row first."""
     from .sampling import _progress
 
+    if isinstance(methods, str):
+        methods = (methods,)
+    bad = [m for m in methods if m not in BLEND_ROWS]
+    if bad:
+        raise ValueError(f"methods must come from {tuple(BLEND_ROWS)}, got {bad}")
     data = blending_windows(windows, data_root=data_root)
     gt = data["joints"]                                                     # (n, 40, 22, 3)
     n, T = gt.shape[:2]
     l = int(transition)
-    if not 1 <= l <= T - 2:
-        raise ValueError(f"transition must be in 1..{T - 2}, got {transition!r}")
+    if not 1 <= l <= T - 2 * (JERK_MARGIN + 1):
+        raise ValueError(f"transition must be in 1..{T - 2 * (JERK_MARGIN + 1)} (a {T}-frame "
+                         f"window keeps {JERK_MARGIN + 1} context frames a side for the jerk), "
+                         f"got {transition!r}")
     ca = (T - l) // 2
     cb = T - l - ca
     lo, hi = ca - JERK_MARGIN, ca + l + JERK_MARGIN
@@ -903,6 +916,10 @@ def evaluate_blending(windows=32, transition=TRANSITION, methods=tuple(BLEND_ROW
              "AUJ": auj, "PJ": pj,
              "MPJPE": float(np.mean([mpjpe(f[ca:ca + l], g[ca:ca + l])
                                      for f, g in zip(filled, gt)])),
+             # the context frames a method changed (inversion cross-fades them; 0 otherwise)
+             "context": float(np.mean(np.linalg.norm(
+                 np.concatenate([filled[:, :ca], filled[:, ca + l:]], axis=1)
+                 - np.concatenate([gt[:, :ca], gt[:, ca + l:]], axis=1), axis=-1))),
              "step_ratio": float(np.max([junction_step_ratio(f, slice(ca, ca + l),
                                                               [g[:ca], g[ca + l:]])
                                          for f, g in zip(filled, gt)])),
@@ -913,8 +930,6 @@ def evaluate_blending(windows=32, transition=TRANSITION, methods=tuple(BLEND_ROW
 
     rows = {"real": row(gt, 0.0)}
     for method in methods:
-        if method not in BLEND_ROWS:
-            raise ValueError(f"methods must come from {tuple(BLEND_ROWS)}, got {method!r}")
         out, t0 = [], time.perf_counter()
         for i in _progress(range(n), progress, method):
             res = blend(gt[i, :ca], gt[i, ca + l:], transition=l,
@@ -927,14 +942,15 @@ def evaluate_blending(windows=32, transition=TRANSITION, methods=tuple(BLEND_ROW
 
 def format_blending_table(rows, transition=TRANSITION):
     """Markdown table of :func:`evaluate_blending`."""
-    head = ("| method | FID ↓ | AUJ ↓ | PJ (real = {pj:.4f}) | MPJPE m ↓ | max step ratio | "
-            "bone var m | floor % | s / transition |").format(pj=rows["real"]["PJ"])
+    head = ("| method | FID ↓ | AUJ ↓ | PJ (real = {pj:.4f}) | MPJPE m ↓ | context drift m | "
+            "max step ratio | bone var m | floor % | s / transition |"
+            ).format(pj=rows["real"]["PJ"])
     lines = [f"Blending a masked {transition}-frame transition (Table A4 analogue, held-out "
-             f"windows that change phase)", "", head, "|" + " --- |" * 9]
+             f"windows that change phase)", "", head, "|" + " --- |" * 10]
     for name, r in rows.items():
         lines.append(f"| {name} | {r['FID']:.3f} | {r['AUJ']:.3f} | {r['PJ']:.4f} | "
-                     f"{r['MPJPE']:.3f} | {r['step_ratio']:.2f} | {r['bones']:.4f} | "
-                     f"{100 * r['floor']:.1f} | {r['seconds']:.2f} |")
+                     f"{r['MPJPE']:.3f} | {r['context']:.3f} | {r['step_ratio']:.2f} | "
+                     f"{r['bones']:.4f} | {100 * r['floor']:.1f} | {r['seconds']:.2f} |")
     return "\n".join(lines)
 
 

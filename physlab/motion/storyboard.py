@@ -42,8 +42,10 @@ __all__ = ["StoryboardFrame", "Storyboard", "StoryboardAnimation", "storyboard_t
 STORYBOARD_VERSION = 1
 
 
-def _array_or_none(v, name, cols):
+def _array_or_none(v, name, cols, required=False):
     if v is None:
+        if required:
+            raise ValueError(f"{name} must be a (k, {cols}) array, got None")
         return None
     try:
         a = np.asarray(v, dtype=float)
@@ -60,7 +62,8 @@ def _trajs_or_none(d, name, cols):
     if not isinstance(d, dict):
         raise ValueError(f"{name} must be a dict {{joint_name: (t_r, {cols}) array}}, got "
                          f"{type(d).__name__}")
-    return {str(k): _array_or_none(v, f"{name}[{k!r}]", cols) for k, v in d.items()}
+    return {str(k): _array_or_none(v, f"{name}[{k!r}]", cols, required=True)
+            for k, v in d.items()}
 
 
 @dataclass
@@ -184,6 +187,13 @@ class Storyboard:
     title: str = ""
 
     def __post_init__(self):
+        if not isinstance(self.title, str):
+            raise TypeError(f"title must be a text, got {self.title!r}")
+        self.validate()
+
+    def validate(self):
+        """Check every frame against the storyboard's camera (also after frames were added
+        or edited in place); errors name the frame. :func:`animate_storyboard` calls it."""
         self.frames = list(self.frames)
         if not self.frames:
             raise ValueError("a storyboard needs at least one frame")
@@ -225,7 +235,8 @@ class Storyboard:
         parsed = [StoryboardFrame.from_dict(f, f"{source}: frames[{i}]")
                   for i, f in enumerate(frames)]
         try:
-            return cls(parsed, camera=camera, title=str(d.get("title", "")))
+            title = d.get("title", "")
+            return cls(parsed, camera=camera, title="" if title is None else title)
         except (TypeError, ValueError) as e:
             raise ValueError(f"{source}: {e}") from None
 
@@ -303,7 +314,7 @@ def animate_storyboard(storyboard, transition=TRANSITION, seed=0, progress=False
     -------
     :class:`StoryboardAnimation`.
     """
-    from .sampling import _progress, load_generator
+    from .sampling import load_generator
 
     if isinstance(storyboard, (str, Path)):
         storyboard = Storyboard.load(storyboard)
@@ -314,10 +325,17 @@ def animate_storyboard(storyboard, transition=TRANSITION, seed=0, progress=False
         raise ValueError(f"method must be one of {BLEND_METHODS}, got {method!r}")
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
         raise ValueError(f"seed must be an integer >= 0, got {seed!r}")
+    storyboard.validate()
+    reserved = sorted({"actions", "generator", "seed", "method", "transition"}
+                      & set(blend_options or {}))
+    if reserved:
+        raise ValueError(f"blend_options may not set {reserved}: animate_storyboard sets them "
+                         f"(use its own arguments)")
+    from tqdm.auto import tqdm
+
     gen = load_generator(checkpoint)
     n = len(storyboard)
-    steps = _progress(range(2 * n - 1), progress, "storyboard")
-    it = iter(steps)
+    bar = tqdm(total=2 * n - 1, disable=not progress, desc="storyboard")
     clips, gen_s, blend_s = [], [], []
     for i, frame in enumerate(storyboard.frames):
         t0 = time.perf_counter()
@@ -327,7 +345,7 @@ def animate_storyboard(storyboard, transition=TRANSITION, seed=0, progress=False
         except (TypeError, ValueError) as e:
             raise type(e)(f"frames[{i}] ({frame.action!r}): {e}") from None
         gen_s.append(time.perf_counter() - t0)
-        next(it, None)
+        bar.update(1)
     if common_skeleton and n > 1:   # one character: every clip on the same bone lengths
         from .body import clip_bone_lengths, constrain_body
 
@@ -349,7 +367,8 @@ def animate_storyboard(storyboard, transition=TRANSITION, seed=0, progress=False
         windows.append(res.window)
         segments.append(slice(res.transition.stop, len(motion)))
         blend_s.append(res.seconds)
-        next(it, None)
+        bar.update(1)
+    bar.close()
     return StoryboardAnimation(motion, clips, segments, transitions, windows, placements,
                                {"generate": gen_s, "blend": blend_s})
 

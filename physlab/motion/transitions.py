@@ -13,8 +13,10 @@ clips with these baselines:
 * :func:`slerp_transition` — local joint *rotations* interpolated along the geodesic (slerp),
   the root position linearly; bone lengths stay fixed, the velocity still jumps.
 * :func:`squad_transition` — local rotations by SQUAD [Shoemake 1987], the root position by a
-  cubic Hermite curve, both with end velocities taken from the context, so the transition is
-  C1 at the junctions (same velocity as the context) and rigid.
+  cubic Hermite curve with the context's end velocities; rigid. With Shoemake's own inner
+  points (the default, ``tangents="shoemake"``) the rotations slow down at the junctions;
+  with ``tangents="context"`` they keep the context's angular velocity (C1), which flips
+  on fast, jittery generated joints (see :func:`squad_transition`).
 
 Rotations come from joint positions through :mod:`physlab.motion.export`: one set of rest
 offsets (:func:`~physlab.motion.export.rest_offsets` of the key frames, so every output frame
@@ -37,10 +39,11 @@ SQUAD on unevenly spaced keys
     ``squad(q_0, q_1, s_0, s_1, h) = slerp(slerp(q_0, q_1, h), slerp(s_0, s_1, h),
     2h(1 - h))`` has derivative ``m_0`` at ``h = 0`` and ``m_1`` at ``h = 1``. The keys of a
     gap are *not* evenly spaced (one frame, ``n + 1`` frames, one frame), so the literal
-    formula would halve the velocity at the junctions; here the tangents are the context's
-    angular velocities per frame scaled to the gap, ``m_0 = -(n + 1) log(q_0⁻¹ q_{-1})`` and
+    formula (the default) does not keep the context's velocity at the junctions; with
+    ``tangents="context"`` the tangents are the context's angular velocities per frame
+    scaled to the gap, ``m_0 = -(n + 1) log(q_0⁻¹ q_{-1})`` and
     ``m_1 = (n + 1) log(q_1⁻¹ q_2)`` (``q_{-1}, q_0`` = last two frames of ``before``,
-    ``q_1, q_2`` = first two of ``after``), exactly as for the Hermite root. A joint turning
+    ``q_1, q_2`` = first two of ``after``), exactly as for the Hermite root; a joint turning
     at constant angular velocity is then continued at that velocity.
 
 Quaternion sign
@@ -295,9 +298,10 @@ def squad_transition(before, after, n, match_ends=False, tangents="shoemake"):
     ``p_1 = after[0, 0]`` with tangents ``(n + 1) (before[-1, 0] - before[-2, 0])`` and
     ``(n + 1) (after[1, 0] - after[0, 0])``. Forward kinematics rebuilds the positions.
 
-    Properties: a joint turning at constant angular velocity, and a root moving at constant
-    velocity, are continued exactly; the velocity matches the context at both junctions
-    (C1); bone lengths are those of the rest offsets in every frame. All logarithms take the
+    Properties: a root moving at constant velocity is continued exactly; with
+    ``tangents="context"`` so is a joint turning at constant angular velocity, and the
+    velocity matches the context at both junctions (C1); bone lengths are those of the rest
+    offsets in every frame. All logarithms take the
     shortest arc (``q`` and ``-q`` are the same rotation).
 
     Parameters

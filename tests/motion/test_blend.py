@@ -68,7 +68,8 @@ def test_rotational_transitions_keep_bones(method):
     res = blend(a, b, 20, method=method)
     assert res.joints.shape == (100, 22, 3)
     assert bone_length_variation(res.joints[res.transition]) < 1e-6
-    assert np.allclose(res.joints[:40], a) and np.allclose(res.joints[60:], b)
+    # the fill joins both clips without a jump larger than the clips' own steps
+    assert junction_step_ratio(res.joints, res.window, [a, b], "local") < 1.5
 
 
 def test_junction_step_ratio_by_hand():
@@ -134,3 +135,41 @@ def test_bad_input(gen):
         blend(a, a, 20, method="inversion", actions=("a person walks",) * 2, generator=gen,
               guidance=(1,))
     assert set(BLEND_METHODS) == {"concat", "linear", "slerp", "squad", "inversion"}
+
+
+def test_place_after_uses_the_mean_speed_of_both_clips():
+    a = _walk(v=(0.0, 0.0, 0.04))
+    b = _walk(v=(0.0, 0.0, 0.08), heading=1.0, start=(4.0, 4.0))
+    p = place_after(a, b, 9)
+    # heading of b turned onto a's: both move along +z; gap of 10 steps at (0.04 + 0.08) / 2
+    assert np.allclose(p[0, 0, [0, 2]], a[-1, 0, [0, 2]] + [0.0, 10 * 0.06], atol=1e-9)
+    placed, theta, offset = place_after(a, b, 9, return_transform=True)
+    assert np.allclose(placed, p)
+    assert np.allclose(_rotate_y(b, np.full(len(b), theta)) + offset, p, atol=1e-9)
+
+
+def test_inversion_options_and_their_errors(gen):
+    a = gen("a person walks", seed=0, steps=20)
+    b = place_after(a, gen("a person bows", seed=1, steps=20), 20)
+    kw = dict(actions=("a person walks", "a person bows"), generator=gen, steps=10)
+    z = blend(a, b, 20, "inversion", guidance_space="network", guidance=(1, 10), **kw)
+    x = blend(a, b, 20, "inversion", guidance=(1, 10), **kw)
+    assert z.joints.shape == x.joints.shape == (100, 22, 3)
+    assert not np.allclose(z.joints, x.joints)              # a different guidance path
+    for r in (z, x):                                        # both hold the context
+        assert np.linalg.norm(r.joints[[30, 69]] - np.stack([a[30], b[9]]), axis=-1).mean() < 0.05
+    loose = blend(a, b, 20, "inversion", body_constraints=False, init_weight=0.0, **kw)
+    assert bone_length_variation(loose.joints[loose.window]) > 1e-3   # constraints were on
+    for bad, match in [(dict(guidance_space="z"), "guidance_space"),
+                       (dict(init_weight=-1.0), "init_weight"),
+                       (dict(fixed_point=-1), "fixed_point"),
+                       (dict(guidance_scale=float("nan")), "guidance_scale"),
+                       (dict(steps=0), "steps")]:
+        with pytest.raises(ValueError, match=match):
+            blend(a, b, 20, "inversion", **{**kw, **bad})
+    with pytest.raises(TypeError, match="body_constraints"):
+        blend(a, b, 20, "inversion", body_constraints="yes", **kw)
+    with pytest.raises(ValueError, match="window must be a slice"):
+        junction_step_ratio(a, slice(None, 3), [a, b])
+    with pytest.raises(ValueError, match="two clips"):
+        junction_step_ratio(a, slice(3, 3), [a])

@@ -553,3 +553,48 @@ def test_ddim_inversion_errors():
         s.invert(lambda x, t, c: x[:, :2], x, steps=5)
     with pytest.raises(ValueError, match="x0"):
         s.invert(lambda x, t, c: x, torch.full((1, 4), float("nan")), steps=5)
+    with pytest.raises(ValueError, match="fixed_point"):
+        s.invert(lambda x, t, c: x, x, steps=5, fixed_point=-1)
+
+
+def test_ddim_inversion_with_mld_settings_and_the_scheduler_state():
+    """The shipped schedule (MLD: scaled-linear, "leading" with offset 1, ᾱ_final = ᾱ_0): the
+    first levels are nearly noise-free, so an x̂₀-network's ε̂ amplifies its errors; even an
+    exact Gaussian model round-trips far worse than with "trailing" spacing (the numbers
+    physlab.motion.blend quotes), ε-prediction better; fixed-point refinement diverges for
+    x̂₀. invert() leaves the scheduler's timesteps as they were."""
+    mu, sigma = 0.3, 0.7
+    x0 = mu + sigma * torch.randn(4, 40, 3, generator=_gen(11), dtype=F64)
+    mld = dict(beta_start=0.00085, beta_end=0.012, beta_schedule="scaled_linear",
+               timestep_spacing="leading", steps_offset=1, set_alpha_to_one=False)
+    err = {}
+    for kind, fp in (("sample", 0), ("sample", 3), ("epsilon", 0)):
+        s = NoiseScheduler(prediction_type=kind, **mld)
+        fn = (_gaussian_eps if kind == "epsilon" else _gaussian_x0)(s, mu, sigma)
+        s.set_timesteps(7)
+        before = s.timesteps.clone()
+        z = s.invert(fn, x0, steps=20, fixed_point=fp)
+        assert torch.equal(s.timesteps, before) and s.num_inference_steps == 7
+        back = s.sample(fn, None, steps=20, method="ddim", x_T=z)
+        err[kind, fp] = float((back - x0).abs().max())
+    assert 0.3 < err["sample", 0] < 1.0                   # measured 0.63
+    assert err["epsilon", 0] < 0.5 * err["sample", 0]      # measured 0.12
+    assert err["sample", 3] > 10 * err["sample", 0]        # diverges (measured 35)
+
+
+def test_ddim_inversion_v_prediction_round_trip():
+    mu, sigma = 0.0, 0.8
+    x0 = sigma * torch.randn(2, 40, 3, generator=_gen(5), dtype=F64)
+    s = NoiseScheduler(prediction_type="v_prediction", timestep_spacing="trailing",
+                       set_alpha_to_one=True)
+    eps_fn = _gaussian_eps(s, mu, sigma)
+
+    def v_fn(x_t, t, cond=None):                  # v = √ᾱ ε − √(1−ᾱ) x̂₀ of the exact model
+        a = _bcast(s.alphas_cumprod[t], x_t)
+        eps = eps_fn(x_t, t)
+        x0_hat = (x_t - (1 - a).sqrt() * eps) / a.sqrt()
+        return a.sqrt() * eps - (1 - a).sqrt() * x0_hat
+
+    errs = [float((s.sample(v_fn, None, steps=k, method="ddim", x_T=s.invert(v_fn, x0, steps=k))
+                   - x0).abs().max()) for k in (20, 200)]
+    assert errs[1] < errs[0] < 0.5

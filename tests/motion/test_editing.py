@@ -95,3 +95,18 @@ def test_bad_input():
         drag_trajectory(np.zeros((5, 3)), 1, [0, 0])
     with pytest.raises(ValueError, match="unknown keys"):
         regenerate("a person walks", {"keypose": np.zeros((22, 3))})
+    with pytest.raises(ValueError, match="the string 'pelvis'"):
+        extract_conditions(x, trajectory_joints="pelvis")
+    with pytest.raises(ValueError, match="frames must be None or an integer"):
+        extract_conditions(x, frames=2.7)
+    with pytest.raises(ValueError, match="index must be an integer"):
+        drag_trajectory(np.zeros((5, 3)), 2.9, [0, 0, 0])
+    with pytest.raises(ValueError, match="NaN"):
+        drag_trajectory(np.full((5, 3), np.nan), 1, [0, 0, 0])
+    with pytest.raises(ValueError, match="point must be a finite"):
+        move_joint(np.zeros((22, 3)), "head", 0.5)
+    for j in (22, -1, True):
+        with pytest.raises(ValueError, match="joint must be a joint name or an index"):
+            move_joint(np.zeros((22, 3)), j, [0, 0, 0])
+    with pytest.raises(ValueError, match=r"\(t_r, 3\)"):
+        reverse_trajectory(np.zeros(3))
