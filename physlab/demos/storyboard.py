@@ -135,7 +135,7 @@ def blend_demo(method="inversion", transition=TRANSITION, second="a person bows"
     return fig
 
 
-def lesson_blending_table(methods=("linear", "slerp", "squad", "inversion"),
+def lesson_blending_table(methods=("linear", "slerp", "squad", "inpaint", "inversion"),
                           transition=TRANSITION, generator=None):
     """A small Table A4 on the six held-out windows shipped with the lessons
     (``data/motion/lesson_windows.npz``): the middle ``transition`` frames masked and filled

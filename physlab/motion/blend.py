@@ -18,7 +18,11 @@ next clip starts wherever and however it was generated. Two steps join them:
 
        G_m = ‖R(slice(x̂₀^Inv, p)) − R(x̂₀^p)‖² + ‖R(slice(x̂₀^Inv, q)) − R(x̂₀^q)‖²
 
-   so the model re-plans the gap as a motion it knows while both neighbours stay put. The
+   so the model re-plans the gap as a motion it knows while both neighbours stay put.
+   ``"inpaint"`` is a DoubleTake-like baseline (Shafir et al. 2023, a second take over the
+   transition): the same window denoised from fresh noise (seeded) with the context rows
+   replaced at every step by the clips' frames noised to that level (MDM-style inpainting),
+   no G_m guidance. In both, the
    final x̂₀ is the window; its context frames are cross-faded into the clips (they differ
    from them by the guidance's residual only), so nothing jumps where the window ends.
 
@@ -48,7 +52,9 @@ __all__ = ["BLEND_METHODS", "TRANSITION", "BlendResult", "place_after", "blend",
 
 #: Transition methods of :func:`blend`: naive concatenation (no gap), the model-free
 #: baselines, and Sketch2Anim's inversion-based blending.
-BLEND_METHODS = ("concat", "linear", "slerp", "squad", "inversion")
+BLEND_METHODS = ("concat", "linear", "slerp", "squad", "inpaint", "inversion")
+#: DDIM steps of the ``"inpaint"`` baseline (it starts from noise, as a generation does).
+INPAINT_STEPS = 50
 #: Default transition length in frames (Sketch2Anim supp. D masks 20 frames = 1 s).
 TRANSITION = 20
 #: DDIM steps of the inversion and of the denoising that follows (fewer than generation's
@@ -155,11 +161,11 @@ def blend(clip_a, clip_b, transition=TRANSITION, method="inversion", actions=Non
     clip_a, clip_b : (Ta, 22, 3), (Tb, 22, 3) joints (m), world frame, y up.
     transition : int, frames between them (``"concat"``: ignored, 0).
     method : one of :data:`BLEND_METHODS`.
-    actions : ``(text_a, text_b)`` action texts, needed by ``"inversion"``.
+    actions : ``(text_a, text_b)`` action texts, needed by ``"inversion"`` / ``"inpaint"``.
     generator : a :class:`~physlab.motion.sampling.Generator` (default: the shipped one),
-        ``"inversion"`` only; seed : int, unused (the inversion and the DDIM denoising are
-        deterministic; kept so that callers can pass one per junction); steps : DDIM steps
-        of inversion and denoising.
+        for the two model-based methods; seed : int, the starting noise of ``"inpaint"``
+        (``"inversion"`` is deterministic and ignores it); steps : DDIM steps of inversion
+        and denoising (``"inpaint"``: at least :data:`INPAINT_STEPS`).
     guidance : ``(per_step, final)`` L-BFGS iterations of the G_m guidance, Eq. (18).
     guidance_scale : classifier-free guidance w on the combined text (None: the generator's
         text-only default).
@@ -202,9 +208,11 @@ def blend(clip_a, clip_b, transition=TRANSITION, method="inversion", actions=Non
         return BlendResult(j, s, s, method, time.perf_counter() - t0)
     if guidance_space not in ("x0", "network"):
         raise ValueError(f"guidance_space must be 'x0' or 'network', got {guidance_space!r}")
+    if method == "inpaint":                 # the baseline keeps the context by inpainting
+        guidance, init_weight, steps = (0, 0), 0.0, max(int(steps), INPAINT_STEPS)
     j, window = _inversion_blend(a, b, l, actions, generator, seed, steps, guidance,
                                  guidance_scale, body_constraints, progress, fixed_point,
-                                 init_weight, guidance_space)
+                                 init_weight, guidance_space, inpaint=method == "inpaint")
     return BlendResult(j, slice(len(a), len(a) + l), window, method, time.perf_counter() - t0)
 
 
@@ -220,7 +228,7 @@ def _check_guidance(guidance):
 
 
 def _inversion_blend(a, b, l, actions, generator, seed, steps, guidance, guidance_scale,
-                     body_constraints, progress, fixed_point, init_weight, space):
+                     body_constraints, progress, fixed_point, init_weight, space, inpaint=False):
     """Sketch2Anim supp. D on a window of the model's length; returns (joints, window)."""
     import math
 
@@ -289,14 +297,21 @@ def _inversion_blend(a, b, l, actions, generator, seed, steps, guidance, guidanc
     drop = torch.tensor([False])
     freq = min(TEXT_FREQUENCIES, cfg.smooth_basis) or None
     with gen._frequencies(freq):
-        z = sched.invert(lambda x, t, c: gen.denoiser(x, t, text, drop), x0, steps=int(steps),
-                         progress=progress, fixed_point=fixed_point)              # Eq. (17)
+        if inpaint:        # DoubleTake-like: start from noise, keep the known frames noised
+            g = torch.Generator().manual_seed(int(seed))
+            x = torch.randn(x0.shape, generator=g)
+            known_noise = torch.randn(x0.shape, generator=g)
+        else:
+            x = sched.invert(lambda x, t, c: gen.denoiser(x, t, text, drop), x0,
+                             steps=int(steps), progress=progress,
+                             fixed_point=fixed_point)                              # Eq. (17)
         timesteps = sched.set_timesteps(int(steps))
-        x = z
         with torch.no_grad():
             for i, t in enumerate(_progress(timesteps.tolist(), progress, "blend denoising")):
                 t_prev = int(timesteps[i + 1]) if i + 1 < len(timesteps) else -1
                 t_in = torch.tensor([t])
+                if inpaint:        # the context rows: the clips' frames at this noise level
+                    x[:, keep] = sched.add_noise(x0, known_noise, t)[:, keep]
                 iters = final if t_prev == -1 else per_step
                 if iters and space == "network" and t_prev != -1:                # Eq. (18)
                     x, out = gen._guide_network(x, t_in, text, None, w, None, iters,

@@ -868,7 +868,8 @@ def blending_windows(windows=32, pool=256, data_root=None, context=10):
 
 #: Rows of :func:`evaluate_blending`: name -> keywords of :func:`~physlab.motion.blend.blend`.
 BLEND_ROWS = {"linear": {"method": "linear"}, "slerp": {"method": "slerp"},
-              "squad": {"method": "squad"}, "inversion": {"method": "inversion"},
+              "squad": {"method": "squad"}, "inpaint (DoubleTake-like)": {"method": "inpaint"},
+              "inversion": {"method": "inversion"},
               "inversion, z_t guidance": {"method": "inversion", "guidance_space": "network"}}
 
 

@@ -134,7 +134,7 @@ def test_bad_input(gen):
     with pytest.raises(ValueError, match="guidance"):
         blend(a, a, 20, method="inversion", actions=("a person walks",) * 2, generator=gen,
               guidance=(1,))
-    assert set(BLEND_METHODS) == {"concat", "linear", "slerp", "squad", "inversion"}
+    assert set(BLEND_METHODS) == {"concat", "linear", "slerp", "squad", "inpaint", "inversion"}
 
 
 def test_place_after_uses_the_mean_speed_of_both_clips():
@@ -173,3 +173,18 @@ def test_inversion_options_and_their_errors(gen):
         junction_step_ratio(a, slice(None, 3), [a, b])
     with pytest.raises(ValueError, match="two clips"):
         junction_step_ratio(a, slice(3, 3), [a])
+
+
+def test_inpaint_baseline_keeps_the_context_and_depends_on_the_seed(gen):
+    a = gen("a person walks", seed=0, steps=20)
+    b = place_after(a, gen("a person bows", seed=1, steps=20), 20)
+    kw = dict(actions=("a person walks", "a person bows"), generator=gen)
+    r0 = blend(a, b, 20, "inpaint", seed=0, **kw)
+    r1 = blend(a, b, 20, "inpaint", seed=1, **kw)
+    assert r0.joints.shape == (100, 22, 3) and r0.window == slice(30, 70)
+    assert not np.allclose(r0.joints[40:60], r1.joints[40:60])          # fresh noise
+    assert np.array_equal(r0.joints, blend(a, b, 20, "inpaint", seed=0, **kw).joints)
+    # inpainting holds the context without any guidance: within a few cm
+    ctx = np.linalg.norm(r0.joints[[30, 69]] - np.stack([a[30], b[9]]), axis=-1).mean()
+    assert ctx < 0.1
+    assert bone_length_variation(r0.joints[r0.window]) < 1e-3
