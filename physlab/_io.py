@@ -89,3 +89,31 @@ def write_json(path, value):
     import json
 
     return atomic_write_text(path, json.dumps(value, indent=1) + "\n")
+
+
+class JsonDocument:
+    """``save`` / ``load`` for a class that is a versioned JSON document.
+
+    The class sets ``JSON_VERSION`` and defines ``to_dict()`` and
+    ``from_dict(d, source=...)``; ``from_dict`` starts with :meth:`check_document`, so every
+    error names its source (the file when loaded) and the field."""
+
+    JSON_VERSION = 1
+
+    def save(self, path):
+        """Write as indented JSON, atomically (a failed write keeps the old file)."""
+        return write_json(path, self.to_dict())
+
+    @classmethod
+    def load(cls, path):
+        """Read a file written by :meth:`save`; errors name the file."""
+        return cls.from_dict(read_json(path), source=str(path))
+
+    @classmethod
+    def check_document(cls, d, source):
+        """ValueError naming ``source`` unless ``d`` is a JSON object of this version."""
+        if not isinstance(d, dict):
+            raise ValueError(f"{source}: expected a JSON object, got {type(d).__name__}")
+        if d.get("version") != cls.JSON_VERSION:
+            raise ValueError(f"{source}: 'version' must be {cls.JSON_VERSION}, got "
+                             f"{d.get('version')!r}")

@@ -36,7 +36,7 @@ from pathlib import Path
 
 import numpy as np
 
-from physlab._io import read_json, write_json
+from physlab._io import JsonDocument
 
 from .camera import Camera, from_pixels
 from .dataset import TRAJECTORY_JOINT_NAMES, TRAJECTORY_JOINTS
@@ -341,10 +341,12 @@ def attach_trajectories(strokes, joints, frames=40, by_speed=False):
 
 
 @dataclass
-class Sketch:
+class Sketch(JsonDocument):
     """A storyboard sketch (module docstring): ``action`` text, ``camera``, ``strokes``
     (:class:`Stroke`, canvas pixels), canvas ``size`` (width, height) px, and ``joints``
-    ((22, 2) pixels; None until :meth:`keypose` snaps them or a person places them)."""
+    ((22, 2) pixels; None until :meth:`keypose` snaps them or a person places them).
+    ``save(path)`` / ``load(path)``: JSON (:class:`~physlab._io.JsonDocument`)."""
+    JSON_VERSION = SKETCH_VERSION
     action: str = "a person walks"
     camera: Camera = field(default_factory=Camera)
     strokes: list = field(default_factory=list)
@@ -441,11 +443,7 @@ class Sketch:
 
     @classmethod
     def from_dict(cls, d, source="sketch"):
-        if not isinstance(d, dict):
-            raise ValueError(f"{source}: expected a JSON object, got {type(d).__name__}")
-        if d.get("version") != SKETCH_VERSION:
-            raise ValueError(f"{source}: 'version' must be {SKETCH_VERSION}, got "
-                             f"{d.get('version')!r}")
+        cls.check_document(d, source)
         try:
             strokes = []
             for k, s in enumerate(d.get("strokes", [])):
@@ -459,15 +457,6 @@ class Sketch:
                        joints=d.get("joints"))
         except (TypeError, ValueError) as e:
             raise ValueError(f"{source}: {e}") from None
-
-    def save(self, path):
-        """Write the sketch as JSON (atomically: a failed write keeps the old file)."""
-        return write_json(path, self.to_dict())
-
-    @classmethod
-    def load(cls, path):
-        d = read_json(path)
-        return cls.from_dict(d, source=str(path))
 
 
 # ----------------------------------------------------------------------------- PNG

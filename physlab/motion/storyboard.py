@@ -29,7 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
-from physlab._io import read_json, write_json
+from physlab._io import JsonDocument
 
 from .blend import BLEND_METHODS, TRANSITION, blend, place_after
 from .camera import Camera
@@ -179,9 +179,11 @@ class StoryboardFrame:
 
 
 @dataclass
-class Storyboard:
+class Storyboard(JsonDocument):
     """Frames in order (:class:`StoryboardFrame`), a ``camera`` for frames drawn without
-    their own, and a ``title``. At least one frame."""
+    their own, and a ``title``. At least one frame. ``save(path)`` / ``load(path)``: JSON
+    (:class:`~physlab._io.JsonDocument`)."""
+    JSON_VERSION = STORYBOARD_VERSION
     frames: list
     camera: Camera | None = None
     title: str = ""
@@ -219,11 +221,7 @@ class Storyboard:
 
     @classmethod
     def from_dict(cls, d, source="storyboard"):
-        if not isinstance(d, dict):
-            raise ValueError(f"{source}: expected a JSON object, got {type(d).__name__}")
-        if d.get("version") != STORYBOARD_VERSION:
-            raise ValueError(f"{source}: 'version' must be {STORYBOARD_VERSION}, got "
-                             f"{d.get('version')!r}")
+        cls.check_document(d, source)
         frames = d.get("frames")
         if not isinstance(frames, list) or not frames:
             raise ValueError(f"{source}: 'frames' must be a non-empty list of frames")
@@ -239,15 +237,6 @@ class Storyboard:
             return cls(parsed, camera=camera, title="" if title is None else title)
         except (TypeError, ValueError) as e:
             raise ValueError(f"{source}: {e}") from None
-
-    def save(self, path):
-        """Write the storyboard as JSON (atomically: a failed write keeps the old file)."""
-        return write_json(path, self.to_dict())
-
-    @classmethod
-    def load(cls, path):
-        d = read_json(path)
-        return cls.from_dict(d, source=str(path))
 
 
 @dataclass

@@ -8,8 +8,8 @@ existing T-junctions, presses Save and checks that the JSON on disk gained that 
 clicks the new dot again (removed), presses Solve and waits for the coloured contours. Widget
 screenshots go to pytest's ``tmp_path`` (paths printed with ``-s``).
 
-Same requirements and skips as :mod:`tests.e2e.test_lesson_widgets` (whose server, browser and
-page helpers this reuses): ``/usr/bin/chromium`` and the ``playwright`` package.
+Same requirements and skips as the other browser tests (harness: :mod:`tests.e2e.browser`):
+``/usr/bin/chromium`` and the ``playwright`` package.
 """
 from __future__ import annotations
 
@@ -20,11 +20,9 @@ import time
 import numpy as np
 import pytest
 
-from .test_lesson_widgets import (run_scratch_notebook, write_scratch_notebook,  # noqa: F401
-                                  widget_readout,
-                                  HARD_TIMEOUT, PAGE_TIMEOUT, STALL_TIMEOUT, UPDATE_TIMEOUT,
-                                  _assert_no_errors, _check_errors_then, _draw, _in_browser,
-                                  _kernel_idle, _kernel_status, _wait_until, lab)  # noqa: F401
+from .browser import (HARD_TIMEOUT, STALL_TIMEOUT, UPDATE_TIMEOUT, _assert_no_errors,
+                      _check_errors_then, _draw, _in_browser, _kernel_idle, _wait_until,
+                      run_scratch_notebook, widget_readout, write_scratch_notebook)
 
 pytestmark = [pytest.mark.e2e]
 

@@ -9,8 +9,8 @@ Export and reads the exported BVH back with
 :func:`~physlab.viz.storyboard_view.check_bvh`: 3 clips of 40 frames joined by 2 transitions
 of 20 = 160 frames. Widget screenshots go to pytest's ``tmp_path`` (paths printed with ``-s``).
 
-Same requirements and skips as :mod:`tests.e2e.test_lesson_widgets` (whose server, browser and
-page helpers this reuses): ``/usr/bin/chromium`` and the ``playwright`` package.
+Same requirements and skips as the other browser tests (harness: :mod:`tests.e2e.browser`):
+``/usr/bin/chromium`` and the ``playwright`` package.
 """
 from __future__ import annotations
 
@@ -19,11 +19,9 @@ import time
 
 import pytest
 
-from .test_lesson_widgets import (run_scratch_notebook, write_scratch_notebook,  # noqa: F401
-                                  widget_readout,
-                                  HARD_TIMEOUT, PAGE_TIMEOUT, REPO, STALL_TIMEOUT,  # noqa: F401
-                                  UPDATE_TIMEOUT, _assert_no_errors, _check_errors_then,
-                                  _in_browser, _kernel_idle, _kernel_status, _wait_until, lab)
+from .browser import (HARD_TIMEOUT, REPO, STALL_TIMEOUT, _assert_no_errors, _check_errors_then,
+                      _in_browser, _kernel_idle, _wait_until, run_scratch_notebook,
+                      widget_readout, write_scratch_notebook)
 
 pytestmark = [pytest.mark.e2e]
 
