@@ -74,3 +74,43 @@ def test_drawing_snapping_dragging_and_generating(tmp_path):
     c.clear.click()
     c.go.click()                                               # nothing drawn: an error, shown
     assert "the sketch is empty" in c.status
+
+
+def test_on_change_runs_after_every_change_of_the_drawing(tmp_path):
+    """Strokes, a dragged joint, Snap, Undo, Clear, Load and the camera each call the
+    registered callbacks once (with the canvas); a removed callback is not called; a
+    callback's error shows in the readout; a non-callable is refused."""
+    c = SketchCanvas(Sketch(camera=Camera()))
+    seen, other = [], []
+    c.on_change(lambda canvas: seen.append(len(canvas.sketch.strokes)))
+    c.on_change(other.append)
+    for stroke in FIGURE:
+        _drag(c, stroke)
+    assert seen == [1, 2, 3, 4, 5] and other == [c] * 5
+    c.on_change(other.append, remove=True)
+    c.snap.click()
+    c.mode.value = "joints"
+    head = c.sketch.joints[15].copy()
+    _drag(c, [tuple(head), (head[0] + 5, head[1] - 4)])
+    c.undo.click()
+    c.pitch.value = 20.0
+    assert seen == [1, 2, 3, 4, 5, 5, 5, 4, 4] and len(other) == 5
+    c.sketch.save(tmp_path / "s.json")
+    c.file.value = str(tmp_path / "s.json")
+    c.clear.click()
+    assert seen[-1] == 0
+    n = len(seen)
+    c.load.click()
+    assert seen[-1] == 4 and len(seen) > n
+    c._drawing = None
+    c.mode.value = "pose"
+    _drag(c, [(10, 10), (10, 10)])                         # a click: no stroke, no change
+    assert seen[-1] == 4
+
+    def broken(_canvas):
+        raise ValueError("the callback failed")
+    c.on_change(broken)
+    c.undo.click()
+    assert "the callback failed" in c.status
+    with pytest.raises(TypeError, match="callback must be callable"):
+        c.on_change("not a function")

@@ -387,6 +387,21 @@ class MotionDenoiser(nn.Module):
                                  persistent=False)
         else:
             self.low_pass = None
+        #: None or ``(mask, P)``: the feature columns where ``mask`` (D,) is 1 keep only the
+        #: frequencies of ``P`` (a narrower :func:`low_pass_matrix`; set by the sampler for the
+        #: pelvis path, :data:`~physlab.motion.sampling.PATH_FREQUENCIES`).
+        self.column_low_pass = None
+
+    def smooth(self, v):
+        """``v`` (B, T, D) in the output basis: the :attr:`low_pass` rows, then the
+        :attr:`column_low_pass` columns (what :meth:`forward` does to the head's output)."""
+        if self.low_pass is not None:                                      # K lowest frequencies
+            v = torch.einsum("st,btd->bsd", self.low_pass.to(v.dtype), v)
+        if self.column_low_pass is not None:
+            mask, P = self.column_low_pass
+            mask = mask.to(v.dtype)
+            v = v + mask * (torch.einsum("st,btd->bsd", P.to(v.dtype), v) - v)
+        return v
 
     def forward(self, x_t, t, text_emb, drop_text=None, residuals=None):
         """Predicted noise.
@@ -409,9 +424,7 @@ class MotionDenoiser(nn.Module):
         h = self.encoder.tokens(x_t, t, text_emb, drop_text)               # (B, 1+T, C)
         h = self.encoder.run_blocks(h, residuals)[-1]                      # (B, 1+T, C)
         out = self.head(self.ln_f(h[:, 1:]))                               # (B, T, D)
-        if self.low_pass is not None:                                      # K lowest frequencies
-            out = torch.einsum("st,btd->bsd", self.low_pass.to(out.dtype), out)
-        return out
+        return self.smooth(out)
 
 
 # ----------------------------------------------------------------------------- conditions

@@ -53,7 +53,7 @@ from .dataset import TRAJECTORY_JOINT_NAMES, TRAJECTORY_JOINTS
 from .conditions import KEYPOSE_AT, N_FRAMES, build_condition, build_sketch
 from .diffusion import classifier_free_guidance
 from .body import LEG_CHAINS, clip_bone_lengths, constrain_body
-from .features import decode_motion
+from .features import ABS_PELVIS, decode_motion
 from .model import ControlledDenoiser, features_to_joints_torch, low_pass_matrix
 from .skeleton import JOINT_NAMES, PARENTS
 
@@ -101,6 +101,17 @@ CONTROL_TEXT_GUIDANCE = 1.0
 #: within noise. ``python -m physlab.motion.evaluate --frequencies K``.
 TEXT_FREQUENCIES = 10
 CONTROL_FREQUENCIES = 10
+#: DCT frequencies kept in the pelvis's horizontal path (x, z of the ``"absolute"`` features)
+#: of a text-only clip (:meth:`Generator.__call__` ``path_frequencies``). The shipped model's
+#: pelvis surges back and forth along its path (text-only runs: one-frame steps from -0.29 to
+#: +0.59 m; horizontal pelvis acceleration 0.059 m/frame² against 0.008 in real runs), which
+#: inflates the path speed (runs 2.7 m/s against 2.1 real, 8 seeds) though the travel is
+#: right. Real 40-frame pelvis paths keep within 1.6–2.6 cm (mean) of their 6 lowest
+#: frequencies (runs 2.6, walks 1.9, walks to the left 1.6 cm); measured with 6 / 8 / 10
+#: (the rest), path speed runs 1.98 / 2.18 / 2.69 m/s (real 2.10), walks to the left
+#: 0.82 / 0.98 / 1.13 (0.83), pelvis acceleration 0.021 / 0.036 / 0.059 (runs). Under
+#: control the conditions say where the pelvis goes: the path keeps the model's frequencies.
+PATH_FREQUENCIES = 6
 #: Weight λ_b of the bone-length term of the x̂₀ guidance (:meth:`Generator._guide`): the
 #: optimisation keeps every bone at its keypose (or pre-guidance median) length, so it
 #: re-poses the body instead of stretching a limb that the rigid-bone projection then pulls
@@ -244,19 +255,22 @@ class Generator:
         return out
 
     @contextlib.contextmanager
-    def _frequencies(self, k):
+    def _frequencies(self, k, path=None):
         """Inside the block the denoiser's output basis keeps ``k`` DCT frequencies (None:
-        unchanged)."""
+        unchanged), and the pelvis's horizontal path (the ``"absolute"`` features' pelvis x
+        and z) only its ``path`` lowest (None: as the rest)."""
         base = self.denoiser
-        if k is None or base.low_pass is None or k == self.config.smooth_basis:
-            yield
-            return
-        old = base.low_pass
-        base.low_pass = low_pass_matrix(self.config.n_frames, int(k)).to(old)
+        old, old_cols = base.low_pass, base.column_low_pass
+        if k is not None and old is not None and k != self.config.smooth_basis:
+            base.low_pass = low_pass_matrix(self.config.n_frames, int(k)).to(old)
+        if path is not None:
+            mask = torch.zeros(self.config.feature_dim)
+            mask[[ABS_PELVIS.start, ABS_PELVIS.start + 2]] = 1.0             # pelvis x, z
+            base.column_low_pass = (mask, low_pass_matrix(self.config.n_frames, int(path)))
         try:
             yield
         finally:
-            base.low_pass = old
+            base.low_pass, base.column_low_pass = old, old_cols
 
     @property
     def denoiser(self):
@@ -351,10 +365,7 @@ class Generator:
         target_tr, target_key = joints_target if joints_target is not None else (None, None)
         has_traj = cond is not None and bool(cond["traj_mask"].any())
 
-        lp = getattr(self.denoiser, "low_pass", None)        # a smooth-basis model's P
-
-        def smooth(v):                      # keep the correction in the model's output basis
-            return v if lp is None else torch.einsum("st,btd->bsd", lp.to(v.dtype), v)
+        smooth = self.denoiser.smooth       # keep the correction in the model's output basis
 
         def closure():
             u.grad = None
@@ -436,7 +447,7 @@ class Generator:
                  guidance_proximity=0.01, body_constraints=True, guidance_space="x0",
                  guidance_optimizer="lbfgs", condition_scale=1.0, foot_lock=True,
                  frequencies=None, keypose_2d=None, trajectories_2d=None, camera=None,
-                 sketch_encoders=True):
+                 sketch_encoders=True, path_frequencies=None):
         """Generate one 40-frame motion.
 
         Parameters
@@ -490,6 +501,10 @@ class Generator:
             basis of ``K`` DCT frequencies: x̂₀ keeps only its ``K'`` lowest at every step
             (and so does the guidance). None = :data:`TEXT_FREQUENCIES` for text only,
             :data:`CONTROL_FREQUENCIES` under control (capped at ``K``).
+        path_frequencies : None or an int ``1 <= K'' <= K'``: the pelvis's horizontal path
+            keeps only its ``K''`` lowest (an ``"absolute"``-feature model). None =
+            :data:`PATH_FREQUENCIES` for text only (the shipped model's pelvis surges along
+            its path otherwise), the path as the rest under control or with a sketch.
         keypose_2d, trajectories_2d, camera : a sketch (:func:`build_sketch`): a (22, 2)
             keypose and/or ``{joint_name: (t_r, 2)}`` trajectories in the normalised image
             coordinates of ``camera`` (:class:`~physlab.motion.camera.Camera`), placed like
@@ -585,6 +600,20 @@ class Generator:
                              f"frequencies this checkpoint's x̂₀ can keep), got {frequencies!r}"
                              if K else f"frequencies must be None: {self.path} has no "
                              f"low-pass output basis (smooth_basis = 0), got {frequencies!r}")
+        absolute = K and self.config.representation == "absolute"
+        if path_frequencies is None:
+            if absolute and not (controlled or drawn) and frequencies is not None:
+                path_frequencies = min(PATH_FREQUENCIES, frequencies)
+        elif not absolute:
+            raise ValueError(f"path_frequencies must be None: {self.path} has no low-pass "
+                             f"basis over 'absolute' features (representation "
+                             f"{self.config.representation!r}, smooth_basis {K})")
+        elif (isinstance(path_frequencies, bool)
+              or not isinstance(path_frequencies, (int, np.integer))
+              or not 1 <= path_frequencies <= (frequencies or K)):
+            raise ValueError(f"path_frequencies must be None or an integer in 1.."
+                             f"{frequencies or K} (at most the frequencies kept), got "
+                             f"{path_frequencies!r}")
         if controlled and not self.has_control:
             raise ValueError(f"{self.path} is a '{self.stage}' (text-only) checkpoint: it "
                              f"cannot take keypose_3d / trajectories_3d. Train the control "
@@ -636,7 +665,7 @@ class Generator:
         x = torch.randn(shape, generator=g)                                  # x_T ~ N(0, I)
         w, w_c = float(guidance_scale), float(condition_scale)
         bar = _progress(timesteps.tolist(), progress, f"{method} sampling")
-        with torch.no_grad(), self._frequencies(frequencies):
+        with torch.no_grad(), self._frequencies(frequencies, path_frequencies):
             for i, t in enumerate(bar):
                 t_prev = int(timesteps[i + 1]) if i + 1 < len(timesteps) else -1
                 t_in = torch.tensor([t])

@@ -50,6 +50,7 @@ class SketchCanvas(CanvasWidget):
 
     Attributes: ``sketch``, ``motion`` (the last generated joints or None), ``conditions``
     (the last keywords given to ``generate``), ``status`` (the readout text).
+    :meth:`on_change` registers a callback run whenever the drawing changes.
     """
 
     def __init__(self, sketch=None, generate=None, detector=None, backend="auto",
@@ -67,6 +68,7 @@ class SketchCanvas(CanvasWidget):
         self.options = dict(generate_options or {})
         self.motion, self.conditions = None, None
         self._drawing, self._grabbed = None, None
+        self._change_callbacks = []
         W, H = self.sketch.size
         self.canvas = MultiCanvas(3, width=W, height=H)     # 0 strokes, 1 joints, 2 motion
         self.canvas.layout.border = "1px solid #bbb"
@@ -99,6 +101,21 @@ class SketchCanvas(CanvasWidget):
         self.widget = w.VBox([w.HBox([self.canvas, controls]), self.result])
         self.widget.add_class("physlab-sketch-canvas")
         self.redraw()
+
+    def on_change(self, callback, remove=False):
+        """Call ``callback(self)`` after every change of the sketch: a stroke drawn (or
+        :meth:`add_stroke`), a joint dragged, Snap, Undo, Clear, Load, the camera sliders
+        (``remove=True`` unregisters it). Errors it raises show in the readout."""
+        if not callable(callback):
+            raise TypeError(f"callback must be callable, got {callback!r}")
+        if remove:
+            self._change_callbacks.remove(callback)
+        else:
+            self._change_callbacks.append(callback)
+
+    def _changed(self):
+        for f in list(self._change_callbacks):
+            self._guard(f, self)
 
     # -- drawing
     def redraw(self):
@@ -157,6 +174,7 @@ class SketchCanvas(CanvasWidget):
         if self._grabbed is not None:
             self._grabbed = None
             self._say("moved a joint; Generate when the figure looks right")
+            self._changed()
             return
         if self._drawing is None:
             return
@@ -177,12 +195,14 @@ class SketchCanvas(CanvasWidget):
         self.redraw()
         n = {k: sum(s.kind == k for s in self.sketch.strokes) for k in ("pose", "trajectory")}
         self._say(f"{n['pose']} pose and {n['trajectory']} trajectory strokes")
+        self._changed()
 
     def _on_snap(self):
         self.sketch.keypose(self.detector)
         self.redraw()
         self._say("joints snapped to the figure (blue); drag any that are wrong in "
                   "'joints' mode")
+        self._changed()
 
     def _on_undo(self):
         if self.sketch.strokes:
@@ -191,6 +211,7 @@ class SketchCanvas(CanvasWidget):
                 self.sketch.joints = None
         self.canvas[2].clear()
         self.redraw()
+        self._changed()
 
     def _on_clear(self):
         self.sketch.strokes.clear()
@@ -200,6 +221,7 @@ class SketchCanvas(CanvasWidget):
         self.canvas[2].clear()
         self.redraw()
         self._say("cleared")
+        self._changed()
 
     def _on_save(self):
         path = self.sketch.save(self.file.value)
@@ -218,11 +240,13 @@ class SketchCanvas(CanvasWidget):
         self.canvas[2].clear()
         self.redraw()
         self._say(f"loaded {self.file.value}")
+        self._changed()
 
     def _on_camera(self):
         c = self.sketch.camera
         self.sketch.camera = Camera(c.scale, float(self.pitch.value), float(self.yaw.value),
                                     c.roll)
+        self._changed()
 
     def _on_generate(self):
         self.generate()

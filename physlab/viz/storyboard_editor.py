@@ -676,9 +676,7 @@ class StoryboardEditor(CanvasWidget):
             for hidden in (c.action, c.go, c.result):      # one action box; the editor generates
                 hidden.layout.display = "none"
             self._links = [_link(self.action, c.action)]
-            c.canvas.on_mouse_up(lambda _x, _y: self._guard(self._canvas_changed))
-            for b in (c.undo, c.clear, c.snap, c.load):
-                b.on_click(lambda _b: self._guard(self._canvas_changed))
+            c.on_change(lambda _c: self._canvas_changed())
             self.canvas = c
             self.canvas_box.children = [c.widget]
         self.frame_title.value = self._frame_heading()

@@ -151,6 +151,9 @@ BAD = [
     ({"frequencies": 0}, ValueError, r"frequencies must be None or an integer in 1\.\.16"),
     ({"frequencies": 17}, ValueError, r"frequencies must be None or an integer in 1\.\.16"),
     ({"frequencies": 4.0}, ValueError, "frequencies must be None or an integer"),
+    ({"path_frequencies": 0}, ValueError, r"path_frequencies must be None or an integer in 1\.\.10"),
+    ({"frequencies": 8, "path_frequencies": 9}, ValueError, r"in 1\.\.8 \(at most the frequen"),
+    ({"path_frequencies": True}, ValueError, "path_frequencies must be None or an integer"),
 ]
 
 
@@ -171,6 +174,36 @@ def test_frequencies_keep_the_lowest_dct_frequencies_of_the_clip(gen, text):
     default = gen(text, steps=STEPS)
     np.testing.assert_array_equal(default, gen(text, steps=STEPS, frequencies=TEXT_FREQUENCIES))
     assert not np.allclose(default, gen(text, steps=STEPS, frequencies=16))
+
+
+def test_path_frequencies_smooth_only_the_pelvis_path(gen, text):
+    """``path_frequencies=k``: the pelvis's x and z columns of the result (absolute features)
+    lie in the span of the k lowest DCT-II vectors (scipy's orthonormal DCT) while the other
+    columns keep all the frequencies kept; None means PATH_FREQUENCIES for text only and the
+    path as the rest under control."""
+    from scipy.fft import dct
+
+    from physlab.motion.sampling import PATH_FREQUENCIES, TEXT_FREQUENCIES
+
+    assert gen.config.representation == "absolute"
+    path, rest = [0, 2], [c for c in range(gen.config.feature_dim) if c not in (0, 2)]
+    for k in (3, PATH_FREQUENCIES):
+        _, f = gen(text, steps=STEPS, path_frequencies=k, return_features=True)
+        c = dct(f, type=2, norm="ortho", axis=0)                         # (T, D)
+        assert np.abs(c[k:, path]).max() < 1e-4 * np.abs(c[:k, path]).max(), k
+        k0 = TEXT_FREQUENCIES
+        assert np.abs(c[k:k0, rest]).max() > 1e-3 * np.abs(c[:k0, rest]).max(), k
+    default = gen(text, steps=STEPS)
+    np.testing.assert_array_equal(default, gen(text, steps=STEPS,
+                                               path_frequencies=PATH_FREQUENCIES))
+    w = _window()
+    traj = {"left_wrist": w[:10, 20]}
+    controlled = gen(text, trajectories_3d=traj, steps=STEPS, guidance_final=0)
+    np.testing.assert_array_equal(controlled, gen(text, trajectories_3d=traj, steps=STEPS,
+                                                  guidance_final=0, path_frequencies=None))
+    _, f = gen(text, trajectories_3d=traj, steps=STEPS, guidance_final=0, return_features=True)
+    c = dct(f, type=2, norm="ortho", axis=0)
+    assert np.abs(c[PATH_FREQUENCIES:, path]).max() > 1e-3 * np.abs(c[:, path]).max()
 
 
 def test_inference_guidance_pulls_the_motion_onto_the_conditions(gen, text):
