@@ -36,13 +36,16 @@ a high q is *good*, so it would have to enter as a penalty ``1 − q``). physlab
   errors are independent with variances σ², minimised by ``α* = σ→² / (σ→² + σ←²)``. ``D(t) ≥ 0``
   is a per-frame texture distortion supplied by the caller (the deformation's mean
   symmetric-Dirichlet excess ``E_d/4 − 1``, zero for rigid motion) and ``1 − q`` the inpainted
-  fraction: use more of the keyframe whose texture is less inpainted and less stretched, but
-  keep blending, which averages independent errors away. With no information (``d = 0``) the
-  distance prior gives ``α* = t``, the diagonal. The alternative ``texture_model="linear"``,
-  ``c = (1 − α) d→ + α d←``, is linear in α, so its cheapest path sits on one texture and
-  switches as fast as ε allows; on the ground-truth benchmark (``physlab.inbetween.evaluate``)
-  it loses to the diagonal, the variance model beats it. ``λ_mid`` (default 0) penalises
-  mid-blend frames; ``λ_diag`` (default 1e-3) breaks ties towards the diagonal.
+  fraction (:func:`texture_quality`; the pipeline measures it on the visible pixels of the
+  layered templates' inpainted texels, :meth:`~physlab.inbetween.occlusion.LayeredTemplate.
+  render_inpainted`): use more of the keyframe whose texture is less inpainted and less
+  stretched, but keep blending, which averages independent errors away. With no information
+  (``d = 0``) the distance prior gives ``α* = t``, the diagonal. The alternative
+  ``texture_model="linear"``, ``c = (1 − α) d→ + α d←``, is linear in α, so its cheapest path
+  sits on one texture and switches as fast as ε allows; on the ground-truth benchmark
+  (``physlab.inbetween.evaluate``) it loses to the diagonal, the variance model beats it.
+  ``λ_mid`` (default 0) penalises mid-blend frames; ``λ_diag`` (default 1e-3) breaks ties
+  towards the diagonal.
 * edge cost ``λ_Q · ½(Q̂(t_i) + Q̂(t_{i+1})) · |α_m − α_k|`` with ``Q̂ = Q / max Q``: moving
   along α is where the interpolation model is used, so the transition is pushed to the rows
   whose flow is most incompressible. Every monotone path travels ``Σ|Δα| = 1``, so this term

@@ -235,7 +235,9 @@ def evaluate_pairs(pairs, n_frames=11, progress=True, interpolator=None, sheets=
     Returns
     -------
     rows : list of dicts (pair, kind, method, seconds, metric values, and for "physlab" the
-        largest handle error and flipped-triangle count).
+        largest handle error and flipped-triangle count; for "physlab" and "physlab_diagonal"
+        also ``q_fwd_min``, ``q_bwd_min``, the lowest per-frame texture quality of each
+        deformed sequence, Sec. 5.2 — 1 when no inpainted texel is visible).
     """
     pairs = list(pairs)
     it = pairs
@@ -277,6 +279,9 @@ def evaluate_pairs(pairs, n_frames=11, progress=True, interpolator=None, sheets=
             if m.startswith("physlab"):
                 row["handle_error_px"] = float(res.handle_error.max())
                 row["flipped"] = int(res.flipped.sum())
+            if m in ("physlab", "physlab_diagonal"):
+                row["q_fwd_min"] = float(res.q_fwd.min())
+                row["q_bwd_min"] = float(res.q_bwd.min())
             rows.append(row)
     return rows
 
@@ -917,6 +922,10 @@ def _parser():
                    help="evaluate the occlusion benchmark instead (limbs crossing the body; "
                         "layered templates from the true occlusions, plus physlab as a single "
                         "sheet)")
+    p.add_argument("--texture-quality", choices=("inpainted", "none"), default="inpainted",
+                   help="benchmark: the blending costs' texture quality q (Sec. 5.2) from the "
+                        "visible inpainted pixels of the layered templates (default), or q ≡ 1 "
+                        "(an ablation; no effect without occlusions)")
     return p
 
 
@@ -997,7 +1006,8 @@ def main(argv=None):
         if args.pairs is not None:
             pairs = pairs[:args.pairs]
         rows = evaluate_pairs(pairs, n_frames=n_frames, progress=not args.no_progress,
-                              sheets=None if args.out is None else args.out / "pairs")
+                              sheets=None if args.out is None else args.out / "pairs",
+                              texture_quality=args.texture_quality)
         table = format_table(summarize(rows))
         print(table)
         ok, why = metrics.lpips_status()

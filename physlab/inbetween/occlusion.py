@@ -51,7 +51,12 @@ Building the template (:func:`build_layered_template`)
    layer takes the *other* keyframe where, deformed into that pose, its triangle lands fully on
    the other key's foreground and outside its occlusion regions, and is inpainted elsewhere
    (OpenCV Telea as the stand-in for LaMa; ``inpainter=`` is the seam). The inpainted
-   fraction is the texture quality of the layer (:attr:`LayeredTemplate.inpainted_fraction`).
+   texels are kept as a mask of the texture atlas (:attr:`LayeredTemplate.inpainted`, a texture
+   channel): :meth:`LayeredTemplate.render_inpainted` draws it like the texture, so every
+   deformed frame knows which of its visible pixels were inpainted — the area whose IoU is the
+   texture quality q(I) of the blending costs (Sec. 5.2; :func:`~physlab.inbetween.blend.
+   texture_quality`). :attr:`LayeredTemplate.inpainted_fraction` is its share of the back
+   layers' area.
 """
 from __future__ import annotations
 
@@ -480,7 +485,10 @@ class LayeredTemplate(Template):
     texture : (2H, W, 4) float32 atlas: the keyframe on top, the back layers' texture below.
     tex_coords : (T, 3, 2) texture position of every triangle corner in the atlas.
     inpainted_fraction : float in [0, 1], share of back-layer area that had to be inpainted
-        (0 without occlusions): the texture quality the blending optimisation can use.
+        (0 without occlusions).
+    inpainted : (2H, W) bool mask of the atlas: the texels of ``texture`` that came from
+        inpainting (Sec. 5.1); the top half (the keyframe) is all False, and so is everything
+        without back layers. :meth:`render_inpainted` draws it into a pose.
     occlusions : list of the :class:`Occlusion` it was built from.
     """
 
@@ -492,6 +500,7 @@ class LayeredTemplate(Template):
     tex_coords: np.ndarray = None
     inpainted_fraction: float = 0.0
     occlusions: list = field(default_factory=list)
+    inpainted: np.ndarray = None
 
     def __repr__(self):
         h, w = self.image.shape[:2]
@@ -508,23 +517,92 @@ class LayeredTemplate(Template):
         v = self.handle_weights @ d
         return v[self.mesh.tris].mean(axis=1)
 
+    @property
+    def back_triangles(self):
+        """(T,) bool: the triangles of the back layers (Sec. 5.1), textured from the atlas'
+        lower half."""
+        back = np.zeros(self.mesh.n_tris, bool)
+        for reg in self.regions:
+            back[reg.tris_b if reg.front == "A" else reg.tris_a] = True
+        return back
+
+    def _draw(self, texture, x, out_shape, supersample, skeleton, triangles=None):
+        """Warp an atlas-shaped ``texture`` by the triangles (all, or the index array
+        ``triangles``) in back-to-front order at ``skeleton``'s pose."""
+        from ..render import warp_texture
+
+        x = np.asarray(x, dtype=float)
+        order = np.argsort(-self.triangle_depth(skeleton), kind="stable")
+        if triangles is not None:
+            order = order[np.isin(order, triangles)]
+        tris = self.mesh.tris[order]
+        corners = x[tris].reshape(-1, 2)
+        uv = self.tex_coords[order].reshape(-1, 2)
+        T = len(tris)
+        return warp_texture(texture, uv, corners, np.arange(3 * T).reshape(T, 3),
+                            self.shape if out_shape is None else out_shape,
+                            supersample=supersample)
+
     def render(self, x, out_shape=None, supersample=2, skeleton=None):
         """The textured layered template at deformed vertices ``x`` (n, 2), triangles drawn back
         to front by their skinned depth at ``skeleton``'s pose (painter's algorithm).
 
         Returns (H, W, 4) float32 straight RGBA.
         """
-        from ..render import warp_texture
+        return self._draw(self.texture, x, out_shape, supersample, skeleton)
 
+    def render_inpainted(self, x, out_shape=None, supersample=2, skeleton=None,
+                         triangles=None):
+        """The visible pixels whose texture came from inpainting, at deformed vertices ``x``.
+
+        The atlas mask :attr:`inpainted` is a texture channel: it is drawn exactly as
+        :meth:`render` draws the texture (same triangles, same back-to-front order, same
+        antialiasing, the texture's alpha as coverage), so a pixel is marked when more than
+        half of what is *visible* there — the front-most triangles — was sampled from inpainted
+        texels. These are the pixels ``A`` of the texture quality
+        ``q(I) = 1 − |A ∩ F| / |F|`` (Brodt & Bessmeltsev 2024, Sec. 5.2;
+        :func:`~physlab.inbetween.blend.texture_quality`). At the rest pose the back layers
+        lie under their front layers, so nothing is visible: ``q = 1`` at the own keyframe,
+        as the paper notes.
+
+        Parameters
+        ----------
+        x : (n, 2) float deformed vertex positions (pixels).
+        out_shape : (H, W), default the keyframe's size.
+        supersample : int ≥ 1, as :meth:`render`.
+        skeleton : Skeleton of the pose (joint depths order the triangles), default the
+            template's own.
+        triangles : None (all), or an int array / (T,) bool mask of the triangles to draw,
+            e.g. :attr:`back_triangles` alone (then the hidden back layers show).
+
+        Returns
+        -------
+        (H, W) bool.
+        """
         x = np.asarray(x, dtype=float)
-        order = np.argsort(-self.triangle_depth(skeleton), kind="stable")
-        tris = self.mesh.tris[order]
-        corners = x[tris].reshape(-1, 2)
-        uv = self.tex_coords[order].reshape(-1, 2)
-        T = len(tris)
-        return warp_texture(self.texture, uv, corners, np.arange(3 * T).reshape(T, 3),
-                            self.shape if out_shape is None else out_shape,
-                            supersample=supersample)
+        if x.shape != self.X.shape:
+            raise ValueError(f"x must have shape {self.X.shape} (one position per template "
+                             f"vertex), got {x.shape}")
+        if triangles is not None:
+            tr = np.asarray(triangles)
+            if tr.dtype == bool:
+                if tr.shape != (self.mesh.n_tris,):
+                    raise ValueError(f"triangles as a bool mask must have shape "
+                                     f"({self.mesh.n_tris},), got {tr.shape}")
+                tr = np.flatnonzero(tr)
+            elif tr.ndim != 1 or not np.issubdtype(tr.dtype, np.integer) or (
+                    tr.size and (tr.min() < 0 or tr.max() >= self.mesh.n_tris)):
+                raise ValueError(f"triangles must be indices in 0..{self.mesh.n_tris - 1} or a "
+                                 f"({self.mesh.n_tris},) bool mask")
+            triangles = tr
+        H, W = self.shape if out_shape is None else (int(out_shape[0]), int(out_shape[1]))
+        if self.inpainted is None or not self.inpainted.any():
+            return np.zeros((H, W), bool)
+        chan = np.empty(self.texture.shape, np.float32)              # (2H, W, 4)
+        chan[..., :3] = self.inpainted[..., None]
+        chan[..., 3] = self.texture[..., 3]                          # coverage as the texture's
+        out = self._draw(chan, x, (H, W), supersample, skeleton, triangles)
+        return (out[..., 0] > 0.5) & (out[..., 3] > 0.0)
 
 
 def _handle_depth(skeleton):
@@ -851,8 +929,9 @@ def build_layered_template(image, skeleton, occlusions=(), mask=None, mask_predi
         back[reg.tris_b if reg.front == "A" else reg.tris_a] = True
     tex_coords = X_f[tris_f].copy()
     texture, inpainted = img, 0.0
+    hole = np.zeros((2 * H, W), bool)                     # inpainted texels of the atlas
     if back.any():
-        back_tex, inpainted = _back_texture(
+        back_tex, inpainted, hole[H:] = _back_texture(
             img, X_f, tris_f, back, handle_matrix(tris_f, len(X_f)),
             target_skeletons, other_image, other_occlusions, other_mask, mu, inpainter,
             [o.mask_array((H, W)) for o in occlusions])
@@ -865,7 +944,7 @@ def build_layered_template(image, skeleton, occlusions=(), mask=None, mask_predi
         handle_bary=handle_bary, handle_vertices=handle_vertices_f, layers=tuple(regions),
         regions=regions, vertex_layer=vertex_layer, handle_weights=weights, handle_depth=hdepth,
         texture=texture.astype(np.float32), tex_coords=tex_coords, inpainted_fraction=inpainted,
-        occlusions=occlusions)
+        occlusions=occlusions, inpainted=hole)
 
 
 def _triangulate_pslg(outer, polys, points, max_area, min_angle, region_triangles, holes=()):
@@ -958,7 +1037,7 @@ def _back_texture(img, X, tris, back, B, target_skeletons, other_image,
     Where a back-layer triangle, deformed into the other key's pose, lands fully on the other
     key's foreground and outside its occlusion regions, its texture comes from the other key;
     the rest of the back layers' area is inpainted. Returns (texture (H, W, 4), inpainted
-    fraction of the back-layer area)."""
+    fraction of the back-layer area, hole (H, W) bool: the inpainted pixels)."""
     from scipy import ndimage
 
     from ..render import warp_texture
@@ -990,7 +1069,7 @@ def _back_texture(img, X, tris, back, B, target_skeletons, other_image,
             hole &= ~got
     frac = float(hole.sum() / max(covered.sum(), 1))
     tex = (inpainter or _telea)(tex, hole) if hole.any() else tex
-    return tex.astype(np.float32), frac
+    return tex.astype(np.float32), frac, hole
 
 
 # ------------------------------------------------------------------ suggestions, warnings

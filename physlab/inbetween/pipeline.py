@@ -11,6 +11,14 @@ Brodt & Bessmeltsev 2024, Secs. 4–5, for drawings without occlusions:
 4. the blending optimisation (Sec. 5.2): flows between ``I→(t)`` and ``I←(t)``, costs, the
    cheapest path through the image matrix ``I(α, t)``, and its frames
    (:mod:`physlab.inbetween.blend`; RIFE replaced by :class:`FlowInterpolator`).
+
+With occlusions (layered templates, :mod:`physlab.inbetween.occlusion`) step 3 also draws each
+template's inpainted-texel mask into every pose (the visible pixels whose texture was inpainted,
+:meth:`~physlab.inbetween.occlusion.LayeredTemplate.render_inpainted`), and step 4 turns them
+into the texture qualities ``q_0(t) = q(I→(t))``, ``q_1(t) = q(I←(t))``
+(:func:`~physlab.inbetween.blend.texture_quality`, Sec. 5.2) of the vertex cost: the blend leans
+on the key whose texture is less inpainted at that frame. Without occlusions nothing is
+inpainted, ``q ≡ 1``, and the costs are those of the no-occlusion case.
 """
 from __future__ import annotations
 
@@ -22,6 +30,7 @@ import numpy as np
 
 from .blend import (alpha_grid, blend_costs, blending_path, diagonal_path, image_matrix,
                     interpolation_quality, render_path, row_flows)
+from .blend import texture_quality as texture_quality_of
 from .deform import (MAX_HANDLE_STEP, MAX_ITER, MU, TOL, SymmetricDirichletDeformer,
                      deform_through, flipped_count, substeps)
 from .frame_interpolation import FlowInterpolator
@@ -29,11 +38,14 @@ from .occlusion import build_layered_template, limb_overlaps
 from .skeleton import Skeleton, check_compatible, interpolate
 from .template import Template, as_rgba_float, build_template
 
-__all__ = ["inbetween", "InbetweenResult", "deform_sequence", "substeps", "DEFORMERS", "BLENDS"]
+__all__ = ["inbetween", "InbetweenResult", "deform_sequence", "substeps", "DEFORMERS", "BLENDS",
+           "TEXTURE_QUALITIES"]
 
 DEFORMERS = ("symmetric_dirichlet", "arap", "lbs")
 DISTORTION_CAP = 100.0  #: texture distortion assigned to frames with folded triangles
 BLENDS = ("optimal", "diagonal")
+#: ``inbetween(texture_quality=)``: q from the inpainted masks (Sec. 5.2), or q ≡ 1 (ablation)
+TEXTURE_QUALITIES = ("inpainted", "none")
 HANDLE_FLAG_PX = 2.0  #: frames whose largest handle error exceeds this (px) are flagged
 
 
@@ -63,6 +75,12 @@ class InbetweenResult:
         joints a and b overlap in 2D and no occlusion information covers them),
         ``"handle_error"`` (a handle ended more than 2 px from its target), ``"flipped"``
         (folded triangles). Empty tuples for clean frames.
+    q_fwd, q_bwd : (n,) float64 in [0, 1], per-frame texture quality of ``I→(t)`` and
+        ``I←(t)`` (Sec. 5.2): ``1 − |A ∩ F| / |F|`` with ``A`` the visible inpainted pixels
+        and ``F`` the frame's silhouette (alpha > 0.5). All ones without occlusions. Measured in
+        both ``texture_quality`` modes; they enter ``costs`` only with ``"inpainted"``.
+    inpainted_fwd, inpainted_bwd : (n, H, W) bool, the visible inpainted pixels ``A`` of each
+        frame (layered templates), or None (single sheets: nothing is inpainted).
     """
 
     frames: np.ndarray
@@ -86,6 +104,10 @@ class InbetweenResult:
     matrix: object = None
     timings: dict = field(default_factory=dict)
     flags: list = field(default_factory=list)
+    q_fwd: np.ndarray = None
+    q_bwd: np.ndarray = None
+    inpainted_fwd: np.ndarray = None
+    inpainted_bwd: np.ndarray = None
 
     def __repr__(self):
         n, H, W, C = self.frames.shape
@@ -176,10 +198,10 @@ def inbetween(key0, key1, skeleton0, skeleton1, n_frames, animation=None, *, mas
               blend="optimal",
               speedup=3, texture_model="variance", lambda_Q=0.1, lambda_dist=1.0,
               lambda_mid=0.0, prior=0.01, keep_matrix=False, progress=False,
-              occlusions0=None, occlusions1=None, strict=False):
+              occlusions0=None, occlusions1=None, strict=False, texture_quality="inpainted"):
     """In-between frames of two keyframe drawings driven by a skeletal animation.
 
-    Brodt & Bessmeltsev 2024 (no-occlusion case; module docstring for the stages).
+    Brodt & Bessmeltsev 2024, Secs. 4–5 (module docstring for the stages).
 
     Parameters
     ----------
@@ -214,6 +236,10 @@ def inbetween(key0, key1, skeleton0, skeleton1, n_frames, animation=None, *, mas
     strict : bool. Without occlusion information, a skeletal motion that makes non-adjacent
         bones overlap in 2D (:func:`~physlab.inbetween.occlusion.limb_overlaps`) warns naming
         the joints (a single sheet tears there); ``strict=True`` raises instead.
+    texture_quality : "inpainted" (default): the vertex cost uses the texture qualities
+        ``q_0(t)``, ``q_1(t)`` of the two deformed sequences, measured from the visible
+        inpainted pixels of the layered templates (Sec. 5.2); "none": ``q ≡ 1`` (the blend
+        ignores inpainting — an ablation). No effect without occlusions (nothing is inpainted).
 
     Returns
     -------
@@ -245,6 +271,9 @@ def inbetween(key0, key1, skeleton0, skeleton1, n_frames, animation=None, *, mas
                          f"smaller images")
     if blend not in BLENDS:
         raise ValueError(f"blend must be one of {BLENDS}, got {blend!r}")
+    if texture_quality not in TEXTURE_QUALITIES:
+        raise ValueError(f"texture_quality must be one of {TEXTURE_QUALITIES}, got "
+                         f"{texture_quality!r}")
     t = np.linspace(0.0, 1.0, n)
     if animation is None:
         skeletons = interpolate(skeleton0, skeleton1, t)
@@ -300,11 +329,17 @@ def inbetween(key0, key1, skeleton0, skeleton1, n_frames, animation=None, *, mas
 
     tic = time.perf_counter()
     H, W = k0.shape[:2]
+    inp0 = inp1 = None
     if layered:  # triangles back to front at each frame's joint depths
         fwd = np.stack([tpl0.render(x, (H, W), skeleton=s)
                         for x, s in _progress(list(zip(x0s, skeletons)), progress, "render I→")])
         bwd = np.stack([tpl1.render(x, (H, W), skeleton=s)
                         for x, s in _progress(list(zip(x1s, skeletons)), progress, "render I←")])
+        # the inpainted texels drawn like the texture: visible inpainted pixels (Sec. 5.2)
+        inp0 = np.stack([tpl0.render_inpainted(x, (H, W), skeleton=s)
+                         for x, s in zip(x0s, skeletons)])                 # (n, H, W) bool
+        inp1 = np.stack([tpl1.render_inpainted(x, (H, W), skeleton=s)
+                         for x, s in zip(x1s, skeletons)])
     else:
         fwd = np.stack([tpl0.render(x, (H, W)) for x in _progress(x0s, progress, "render I→")])
         bwd = np.stack([tpl1.render(x, (H, W)) for x in _progress(x1s, progress, "render I←")])
@@ -325,9 +360,15 @@ def inbetween(key0, key1, skeleton0, skeleton1, n_frames, animation=None, *, mas
     # E_d = ∞ and get the cap DISTORTION_CAP
     dist0 = np.clip(np.nan_to_num(e0 / 4.0 - 1.0, posinf=DISTORTION_CAP), 0.0, DISTORTION_CAP)
     dist1 = np.clip(np.nan_to_num(e1 / 4.0 - 1.0, posinf=DISTORTION_CAP), 0.0, DISTORTION_CAP)
-    costs = blend_costs(alphas, n_t=n, Q=Q, distortion_fwd=dist0, distortion_bwd=dist1,
-                        lambda_Q=lambda_Q, lambda_dist=lambda_dist, lambda_mid=lambda_mid,
-                        texture_model=texture_model, prior=prior)
+    # texture quality q = 1 − |A ∩ F| / |F| of each deformed sequence (Sec. 5.2); all ones
+    # without layered templates (inp = None)
+    q0 = texture_quality_of(inp0, None if inp0 is None else fwd[..., 3] > 0.5, n_t=n)
+    q1 = texture_quality_of(inp1, None if inp1 is None else bwd[..., 3] > 0.5, n_t=n)
+    use_q = texture_quality == "inpainted"
+    costs = blend_costs(alphas, n_t=n, Q=Q, q_fwd=q0 if use_q else None,
+                        q_bwd=q1 if use_q else None, distortion_fwd=dist0,
+                        distortion_bwd=dist1, lambda_Q=lambda_Q, lambda_dist=lambda_dist,
+                        lambda_mid=lambda_mid, texture_model=texture_model, prior=prior)
     diagonal = diagonal_path(n, alphas, costs)
     path = blending_path(costs, eps) if blend == "optimal" else diagonal
     timings["flow+path"] = time.perf_counter() - tic
@@ -357,4 +398,4 @@ def inbetween(key0, key1, skeleton0, skeleton1, n_frames, animation=None, *, mas
         fwd=fwd, bwd=bwd, distortion_fwd=dist0, distortion_bwd=dist1,
         handle_error=np.stack([err0, err1]), flipped=np.stack([flip0, flip1]), alphas=alphas,
         eps=eps, Q=Q, path=path, diagonal=diagonal, costs=costs, matrix=matrix, timings=timings,
-        flags=flags)
+        flags=flags, q_fwd=q0, q_bwd=q1, inpainted_fwd=inp0, inpainted_bwd=inp1)

@@ -139,6 +139,28 @@ class Template:
                             self.shape if out_shape is None else out_shape,
                             supersample=supersample)
 
+    def render_inpainted(self, x, out_shape=None, supersample=2):
+        """The visible pixels whose texture came from inpainting (Brodt & Bessmeltsev 2024,
+        Sec. 5.2's q): none — a single sheet is textured by its keyframe alone. Layered
+        templates override this (:meth:`~physlab.inbetween.occlusion.LayeredTemplate.
+        render_inpainted`).
+
+        Parameters
+        ----------
+        x : (n, 2) deformed vertex positions; out_shape : (H, W), default the keyframe's;
+        supersample : unused (the signature of :meth:`render`).
+
+        Returns
+        -------
+        (H, W) bool, all False.
+        """
+        x = np.asarray(x, dtype=float)
+        if x.shape != self.X.shape:
+            raise ValueError(f"x must have shape {self.X.shape} (one position per template "
+                             f"vertex), got {x.shape}")
+        H, W = self.shape if out_shape is None else (int(out_shape[0]), int(out_shape[1]))
+        return np.zeros((H, W), bool)
+
 
 def _check_joints_in_image(skeleton, shape, name):
     H, W = shape

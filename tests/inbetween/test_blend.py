@@ -118,6 +118,10 @@ def test_texture_quality():
         texture_quality(A)
     with pytest.raises(ValueError, match="n_t"):
         texture_quality()
+    with pytest.raises(ValueError, match=r"inpainted\[1\] has shape"):
+        texture_quality([A[0], A[1, :5]], F[:2])
+    with pytest.raises(ValueError, match="inpainted has 3 masks but foreground 2"):
+        texture_quality(A, F[:2])
 
 
 # --------------------------------------------------------------------------- costs
@@ -195,6 +199,46 @@ def test_path_prefers_less_distorted_key():
     q[4:] = 0.7
     p = blending_path(blend_costs(al, q_fwd=q, texture_model="linear"), eps)
     assert p.alphas[4] == 1.0
+
+
+def test_inpainted_key_texture_moves_the_blend_to_the_other_key():
+    """Sec. 5.2: where key 0's deformed texture shows an inpainted region and key 1's does not,
+    q(I→) < 1 and the cheapest path leans on key 1 there (a larger α than with q ≡ 1)."""
+    n, H, W = 11, 20, 20
+    al, eps = alpha_grid(n)
+    F = np.ones((n, H, W), bool)                            # the visible silhouettes
+    A0 = np.zeros((n, H, W), bool)
+    A0[3:8, :, :10] = True                                  # half of I→ inpainted at t = .3–.7
+    q0 = texture_quality(A0, F)
+    q1 = texture_quality(np.zeros_like(A0), F)              # key 1's texture: nothing inpainted
+    expect = np.ones(n)
+    expect[3:8] = 0.5
+    np.testing.assert_array_equal(q0, expect)
+    np.testing.assert_array_equal(q1, np.ones(n))
+    t = np.linspace(0, 1, n)
+    opts = dict(distortion_fwd=0.02 * t, distortion_bwd=0.02 * (1 - t))   # some distortion
+    for model in ("variance", "linear"):
+        base = blending_path(blend_costs(al, texture_model=model, **opts), eps)
+        with_q = blending_path(blend_costs(al, q_fwd=q0, q_bwd=q1, texture_model=model,
+                                           **opts), eps)
+        assert np.all(with_q.alphas >= base.alphas - 1e-12), model
+        up = base.alphas[3:8] < 1                                        # room to move
+        assert up.sum() >= 3, model
+        assert np.all(with_q.alphas[3:8][up] > base.alphas[3:8][up]), model   # towards key 1
+    # variance model, per row: the minimum-variance α* = σ→²/(σ→² + σ←²) moves up
+    # exactly where q0 < 1
+    c1 = blend_costs(al, **opts).vertex
+    cq = blend_costs(al, q_fwd=q0, q_bwd=q1, **opts).vertex
+    moved = al[np.argmin(cq, axis=1)] - al[np.argmin(c1, axis=1)]
+    assert np.all(moved[3:8] > 0) and np.all(moved[:3] == 0) and np.all(moved[8:] == 0)
+    # q ≡ 1 is the default
+    base = blending_path(blend_costs(al, q_fwd=np.ones(n), q_bwd=q1, **opts), eps)
+    np.testing.assert_array_equal(base.alphas, blending_path(blend_costs(al, **opts), eps).alphas)
+    # variance model, reference numbers at t = 0.5: α = 0.5 with q ≡ 1; with q0 = 0.5 the grid
+    # value nearest σ→²/(σ→² + σ←²) = (0.5 + 0.01 + 0.005)/(0.515 + 0.015) = 0.972
+    assert base.alphas[5] == pytest.approx(0.5)
+    mid = blending_path(blend_costs(al, q_fwd=q0, **opts), eps).alphas[5]
+    assert mid == pytest.approx(29 / 30, abs=1e-12)
 
 
 def test_path_moves_where_flow_is_incompressible():

@@ -32,6 +32,9 @@ def test_rows_and_summary(rows):
     table = evaluate.format_table(summary)
     assert table.count("\n") == 1 + 3 * len(evaluate.METHODS)
     assert "*" in table
+    # no occlusions: nothing inpainted, texture quality q = 1 in every frame (Sec. 5.2)
+    assert all(r["q_fwd_min"] == r["q_bwd_min"] == 1.0 for r in rows
+               if r["method"] in ("physlab", "physlab_diagonal"))
 
 
 def test_score_frames_identity_and_errors():
@@ -51,6 +54,12 @@ def test_cli_writes_table(tmp_path, capsys):
     rows = json.loads((tmp_path / "rows.json").read_text())
     assert {r["method"] for r in rows} == set(evaluate.METHODS)
     assert (tmp_path / "table.md").is_file() and (tmp_path / "pairs" / f"{rows[0]['pair']}.png").is_file()
+
+
+def test_cli_texture_quality_flag_is_checked(capsys):
+    with pytest.raises(SystemExit):
+        evaluate.main(["--texture-quality", "iou"])
+    assert "--texture-quality: invalid choice: 'iou'" in capsys.readouterr().err
 
 
 def test_real_animated_drawing_no_flips(real_data):

@@ -259,6 +259,70 @@ def test_layered_template_picks_the_cheaper_topology_and_the_arm_in_front(layere
     assert 0.0 < layered.inpainted_fraction < 0.6     # most of the hidden torso from key 0
 
 
+def test_inpainted_mask_is_a_texture_channel(layered, fold):
+    """The atlas' inpainted texels (Sec. 5.1) drawn like the texture: hidden at the rest pose
+    (q = 1 at the own keyframe, Sec. 5.2), the hole itself when the back layer is drawn alone."""
+    from scipy import ndimage
+
+    from physlab.render import warp_texture
+
+    pair, k0, k1, o0, o1 = fold
+    H, W = layered.shape
+    atlas = layered.inpainted
+    assert atlas.shape == (2 * H, W) and atlas.dtype == bool
+    assert not atlas[:H].any()                           # the keyframe's own texels
+    hole = atlas[H:]
+    assert hole.any() and not (hole & ~o1[0].mask).any()   # inside the occlusion region
+    assert hole.sum() / o1[0].mask.sum() == pytest.approx(layered.inpainted_fraction)
+    # rest pose, depth order: the front layer covers the back layer, nothing inpainted shows
+    assert not layered.render_inpainted(layered.X, skeleton=pair.skeleton1).any()
+    # the back layer alone at rest: the hole in image space, within a pixel of the hole's or
+    # the layer's outline (antialiased edges); without the other key it is all inpainted
+    blind = build_layered_template(k1, pair.skeleton1, o1, target_skeletons=[pair.skeleton0],
+                                   assignments=[0])
+    assert blind.inpainted_fraction == 1.0
+
+    def band(m):
+        return ndimage.binary_dilation(m, np.ones((3, 3))) & \
+            ~ndimage.binary_erosion(m, np.ones((3, 3)))
+
+    for tpl, least in ((layered, 30), (blind, 150)):
+        back = tpl.back_triangles
+        assert back.sum() == len(tpl.regions[0].tris_a)
+        hole = tpl.inpainted[H:]
+        got = tpl.render_inpainted(tpl.X, triangles=back)
+        cover = warp_texture(np.ones((H, W, 4), np.float32), tpl.X, tpl.X, tpl.tris[back],
+                             (H, W))[..., 3] > 0.5
+        want = hole & cover
+        assert want.sum() > least
+        assert not ((got ^ want) & ~(band(hole) | band(cover))).any()
+        # the rest are half-covered outline pixels (alpha ≤ 0.5 in ``cover``, not in ``want``)
+        assert (got & want).sum() / (got | want).sum() > (0.6 if tpl is layered else 0.9)
+        np.testing.assert_array_equal(tpl.render_inpainted(tpl.X, triangles=np.flatnonzero(
+            back)), got)                                 # indices or a bool mask
+    assert not (want & ~got).any()                       # blind: all of the layer inpainted
+    # deformed to key 0's pose the torso under the forearm shows: inpainted pixels appear,
+    # all on the drawn silhouette
+    from physlab.inbetween.pipeline import deform_sequence
+
+    x = deform_sequence(layered, [pair.skeleton0])[0][0]
+    seen = layered.render_inpainted(x, skeleton=pair.skeleton0)
+    alpha = layered.render(x, skeleton=pair.skeleton0)[..., 3]
+    assert seen.sum() > 10 and not (seen & (alpha == 0)).any()
+    # a single sheet has no inpainted texel
+    sheet = build_template(k0, pair.skeleton0)
+    assert not sheet.render_inpainted(sheet.X).any()
+
+
+def test_render_inpainted_bad_input(layered):
+    with pytest.raises(ValueError, match=r"x must have shape"):
+        layered.render_inpainted(layered.X[:5])
+    with pytest.raises(ValueError, match="triangles must be indices"):
+        layered.render_inpainted(layered.X, triangles=[-1])
+    with pytest.raises(ValueError, match="triangles as a bool mask"):
+        layered.render_inpainted(layered.X, triangles=np.ones(3, bool))
+
+
 def test_layered_template_bad_input(fold):
     pair, k0, k1, o0, o1 = fold
     far = Occlusion(o1[0].mask, np.array([[5.0, 5.0]]))
@@ -311,3 +375,42 @@ def test_layered_inbetween_beats_the_single_sheet(name):
     # measured at 192 px: +2.3 / +0.9 dB at t = 0.5, +2.3 / +2.0 dB over all in-betweens
     assert s_l["psnr_mid"] > s_s["psnr_mid"] + 0.5 and s_l["psnr_all"] > s_s["psnr_all"] + 1.5
     assert s_l["cd_mid"] < s_s["cd_mid"] and s_l["cd_all"] < s_s["cd_all"]
+
+
+@pytest.fixture(scope="module")
+def fold_q(fold):
+    """fold_arm through the pipeline with q from the inpainted masks and with q ≡ 1."""
+    pair, k0, k1, o0, o1 = fold
+    n = 7
+    run = {tq: inbetween(k0, k1, pair.skeleton0, pair.skeleton1, n, pair.animation(n),
+                         occlusions0=o0, occlusions1=o1, texture_quality=tq)
+           for tq in ("inpainted", "none")}
+    return run["inpainted"], run["none"]
+
+
+def test_texture_quality_feeds_the_blend(fold_q):
+    """Sec. 5.2: q(I←(t)) < 1 where key 1's inpainted torso shows; the blend leans on key 0."""
+    r, r1 = fold_q
+    n = len(r.t)
+    assert r.inpainted_fwd.shape == r.inpainted_bwd.shape == (n,) + r.fwd.shape[1:3]
+    np.testing.assert_array_equal(r.q_fwd, np.ones(n))           # key 0 has no occlusion
+    assert r.q_bwd[-1] == 1.0 and not r.inpainted_bwd[-1].any()  # own keyframe: all hidden
+    assert np.all(r.q_bwd[:-1] < 1) and np.all(np.diff(r.q_bwd) >= 0)
+    assert not (r.inpainted_bwd & (r.bwd[..., 3] == 0)).any()    # on the silhouette only
+    A, F = r.inpainted_bwd, r.bwd[..., 3] > 0.5
+    np.testing.assert_allclose(r.q_bwd, 1 - (A & F).sum((1, 2)) / F.sum((1, 2)))
+    assert r.q_bwd[0] == pytest.approx(0.989, abs=3e-3)          # measured at 192 px
+    # q is measured in both modes; it changes the costs and moves the path towards key 0
+    np.testing.assert_array_equal(r.q_bwd, r1.q_bwd)
+    assert np.all(r.path.alphas <= r1.path.alphas + 1e-12)
+    assert np.any(r.path.alphas < r1.path.alphas - 1e-12)
+    assert np.all(r.costs.vertex[-1] == r1.costs.vertex[-1])     # q = 1 at key 1: same row
+    assert not np.array_equal(r.costs.vertex, r1.costs.vertex)
+    np.testing.assert_array_equal(r.frames[[0, -1]], r1.frames[[0, -1]])
+
+
+def test_texture_quality_option_errors(fold):
+    pair, k0, k1, o0, o1 = fold
+    with pytest.raises(ValueError, match="texture_quality must be one of"):
+        inbetween(k0, k1, pair.skeleton0, pair.skeleton1, 3, pair.animation(3),
+                  occlusions0=o0, occlusions1=o1, texture_quality="iou")

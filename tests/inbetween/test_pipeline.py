@@ -49,6 +49,24 @@ def test_path_is_valid_and_no_worse_than_the_diagonal(result):
     assert np.allclose(result.diagonal.alphas, result.t)
 
 
+def test_no_occlusion_output_unchanged_by_texture_quality(far_pair, result):
+    """Without occlusions nothing is inpainted: q ≡ 1 (Sec. 5.2) and the frames are those of
+    the pipeline before q was measured (reference numbers recorded then, bitwise equal)."""
+    pair, k0, k1 = far_pair
+    r = result
+    np.testing.assert_array_equal(r.q_fwd, np.ones(7))
+    np.testing.assert_array_equal(r.q_bwd, np.ones(7))
+    assert r.inpainted_fwd is None and r.inpainted_bwd is None
+    np.testing.assert_allclose(r.path.alphas, [0, 1 / 9, 1 / 3, 1 / 2, 2 / 3, 8 / 9, 1],
+                               atol=1e-12)
+    assert r.path.cost == pytest.approx(0.16362139019651042, rel=1e-12)
+    assert r.frames.astype(np.float64).sum() == pytest.approx(25566.17536857236, rel=1e-12)
+    off = inbetween(k0, k1, pair.skeleton0, pair.skeleton1, 7, animation=pair.animation(7),
+                    texture_quality="none")
+    np.testing.assert_array_equal(off.frames, r.frames)
+    np.testing.assert_array_equal(off.costs.vertex, r.costs.vertex)
+
+
 def test_beats_cross_dissolve_against_ground_truth(far_pair, result):
     pair, k0, k1 = far_pair
     gt = pair.ground_truth(result.t)
@@ -102,3 +120,5 @@ def test_bad_inputs(far_pair):
         inbetween(k0, k1, s0, s1, 5, blend="best")
     with pytest.raises(ValueError, match="deformer"):
         inbetween(k0, k1, s0, s1, 5, deformer="mls")
+    with pytest.raises(ValueError, match="texture_quality must be one of"):
+        inbetween(k0, k1, s0, s1, 5, texture_quality=None)
