@@ -586,6 +586,8 @@ class WarpRenderer:
 # ------------------------------------------------------------------------------- outputs
 #: Largest frame rate the writers accept (frames per second).
 MAX_FPS = 1000.0
+#: Highest frame rate :func:`frames_to_gif` writes (20 ms frames).
+MAX_GIF_FPS = 50.0
 
 
 def _check_fps(fps):
@@ -620,14 +622,22 @@ def _frames_uint8(frames):
 def frames_to_gif(frames, path, fps=20):
     """Write (T, H, W, 3|4) uint8 (or float in [0, 1]) frames to an animated, looping GIF.
 
-    Written with imageio (looping, ``1000 / fps`` ms per frame); the file appears atomically.
-    Returns the Path.
+    Written with imageio, looping; the file appears atomically. GIF frame times are whole
+    centiseconds, so a rate that does not divide 100 (30 fps: 33.3 ms) gets frame times that
+    alternate (30, 30, 40 ms) to keep the total ``T / fps`` to 10 ms (a constant 30 ms
+    would play 10 % fast). Returns the Path.
     """
     import imageio.v3 as iio
 
     f = _frames_uint8(frames)
     fps = _check_fps(fps)
-    return atomic_write(path, lambda tmp: iio.imwrite(tmp, f, duration=1000 / fps, loop=0),
+    if fps > MAX_GIF_FPS:
+        raise ValueError(f"fps must be at most {MAX_GIF_FPS:g} for a GIF (its frame times are "
+                         f"whole centiseconds and browsers slow down frames under 20 ms), got "
+                         f"{fps:g}: write an MP4 (frames_to_mp4) for faster rates")
+    ends = np.rint(np.arange(1, len(f) + 1) * 100.0 / fps)             # centiseconds
+    durations = (np.diff(ends, prepend=0.0) * 10).astype(int).tolist()  # ms, multiples of 10
+    return atomic_write(path, lambda tmp: iio.imwrite(tmp, f, duration=durations, loop=0),
                         ".gif")
 
 

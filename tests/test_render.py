@@ -296,6 +296,23 @@ def test_frames_to_gif_roundtrip(tmp_path):
     assert [q.name for q in p.parent.iterdir()] == ["a.gif"]  # no temp file left
 
 
+def test_gif_frame_times_add_up_to_the_duration(tmp_path):
+    """GIF frame times are whole centiseconds: at 30 fps they alternate so that T frames
+    last T / 30 s to 10 ms (a plain 30 ms would play 10 % fast); above 50 fps a clear error."""
+    from PIL import Image, ImageSequence
+
+    rng = np.random.default_rng(0)
+    frames = rng.integers(0, 255, (31, 8, 8, 3), dtype=np.uint8)      # all different
+    for fps in (30, 20, 7):
+        p = render.frames_to_gif(frames, tmp_path / f"{fps}.gif", fps=fps)
+        with Image.open(p) as gif:
+            ms = [f.info["duration"] for f in ImageSequence.Iterator(gif)]
+        assert len(ms) == 31 and all(m % 10 == 0 and m > 0 for m in ms), ms
+        assert abs(sum(ms) - 31000 / fps) <= 10, (fps, sum(ms))
+    with pytest.raises(ValueError, match="fps must be at most 50 for a GIF"):
+        render.frames_to_gif(frames, tmp_path / "fast.gif", fps=60)
+
+
 def test_frames_to_mp4_roundtrip(tmp_path):
     import imageio_ffmpeg
 

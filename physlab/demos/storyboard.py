@@ -136,11 +136,12 @@ def blend_demo(method="inversion", transition=TRANSITION, second="a person bows"
 
 
 def lesson_blending_table(methods=("linear", "slerp", "squad", "inpaint", "inversion"),
-                          transition=TRANSITION, generator=None):
+                          transition=TRANSITION, generator=None, seed=0):
     """A small Table A4 on the six held-out windows shipped with the lessons
     (``data/motion/lesson_windows.npz``): the middle ``transition`` frames masked and filled
     by each method. No FID (it needs more windows: ``python -m physlab.motion.evaluate
-    --blending``). Returns ``{row: {AUJ, PJ, MPJPE, bones, floor}}`` with a ``"real"`` row."""
+    --blending``); window ``i`` is filled with seed ``seed + i`` (the ``"inpaint"`` baseline's
+    noise). Returns ``{row: {AUJ, PJ, MPJPE, bones, floor}}`` with a ``"real"`` row."""
     from physlab.demos.sketch_to_motion import lesson_window
 
     gt = np.stack([lesson_window(k)[0] for k in range(6)])
@@ -163,8 +164,8 @@ def lesson_blending_table(methods=("linear", "slerp", "squad", "inpaint", "inver
     rows = {"real": row(gt)}
     for m in methods:
         filled = np.stack([blend(g[:ca], g[ca + transition:], transition, m,
-                                 actions=(t, t), generator=generator).joints
-                           for g, t in zip(gt, texts)])
+                                 actions=(t, t), generator=generator, seed=seed + i).joints
+                           for i, (g, t) in enumerate(zip(gt, texts))])
         rows[m] = row(filled)
     return rows
 

@@ -40,6 +40,7 @@ error ~24x: an *exact* Gaussian x̂₀-model round-trips only to 0.63 with these
 """
 from __future__ import annotations
 
+import contextlib
 from dataclasses import dataclass
 
 import numpy as np
@@ -53,12 +54,13 @@ __all__ = ["BLEND_METHODS", "TRANSITION", "BlendResult", "place_after", "blend",
 #: Transition methods of :func:`blend`: naive concatenation (no gap), the model-free
 #: baselines, and Sketch2Anim's inversion-based blending.
 BLEND_METHODS = ("concat", "linear", "slerp", "squad", "inpaint", "inversion")
-#: DDIM steps of the ``"inpaint"`` baseline (it starts from noise, as a generation does).
+#: DDIM steps of the ``"inpaint"`` baseline (it starts from noise, as a generation does; 50 as
+#: in the README's generation tables, generation's default is 40, ``sampling.DEFAULT_STEPS``).
 INPAINT_STEPS = 50
 #: Default transition length in frames (Sketch2Anim supp. D masks 20 frames = 1 s).
 TRANSITION = 20
 #: DDIM steps of the inversion and of the denoising that follows (fewer than generation's
-#: 50: the window starts from a motion, not from noise).
+#: 40: the window starts from a motion, not from noise).
 BLEND_STEPS = 20
 #: L-BFGS iterations of the G_m guidance at every denoising step and at the last one.
 BLEND_GUIDANCE = (4, 20)
@@ -208,12 +210,23 @@ def blend(clip_a, clip_b, transition=TRANSITION, method="inversion", actions=Non
         return BlendResult(j, s, s, method, time.perf_counter() - t0)
     if guidance_space not in ("x0", "network"):
         raise ValueError(f"guidance_space must be 'x0' or 'network', got {guidance_space!r}")
+    if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps < 1:
+        raise ValueError(f"steps must be an integer >= 1, got {steps!r}")
     if method == "inpaint":                 # the baseline keeps the context by inpainting
         guidance, init_weight, steps = (0, 0), 0.0, max(int(steps), INPAINT_STEPS)
     j, window = _inversion_blend(a, b, l, actions, generator, seed, steps, guidance,
                                  guidance_scale, body_constraints, progress, fixed_point,
                                  init_weight, guidance_space, inpaint=method == "inpaint")
     return BlendResult(j, slice(len(a), len(a) + l), window, method, time.perf_counter() - t0)
+
+
+@contextlib.contextmanager
+def _restored(sched, previous):
+    """Put the scheduler's sampling timesteps back as they were (``previous``) on leaving."""
+    try:
+        yield
+    finally:
+        sched.timesteps, sched.num_inference_steps = previous
 
 
 def _check_guidance(guidance):
@@ -255,10 +268,12 @@ def _inversion_blend(a, b, l, actions, generator, seed, steps, guidance, guidanc
                          f"{guidance_scale!r}")
     if not isinstance(body_constraints, (bool, np.bool_)):
         raise TypeError(f"body_constraints must be True or False, got {body_constraints!r}")
-    if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps < 1:
-        raise ValueError(f"steps must be an integer >= 1, got {steps!r}")
     gen = generator if generator is not None else load_generator()
     cfg = gen.config
+    if inpaint and cfg.representation != "absolute":
+        raise ValueError(f"method='inpaint' needs a checkpoint of 'absolute' features (one "
+                         f"feature row per frame, to replace the context rows); {gen.path} "
+                         f"has {cfg.representation!r} features: use method='inversion'")
     N = cfg.n_joint_frames
     if l > N - 2:
         raise ValueError(f"transition must be at most {N - 2} frames for 'inversion' (the "
@@ -296,7 +311,8 @@ def _inversion_blend(a, b, l, actions, generator, seed, steps, guidance, guidanc
     sched = gen.scheduler
     drop = torch.tensor([False])
     freq = min(TEXT_FREQUENCIES, cfg.smooth_basis) or None
-    with gen._frequencies(freq):
+    previous = getattr(sched, "timesteps", None), getattr(sched, "num_inference_steps", None)
+    with gen._frequencies(freq), _restored(sched, previous):
         if inpaint:        # DoubleTake-like: start from noise, keep the known frames noised
             g = torch.Generator().manual_seed(int(seed))
             x = torch.randn(x0.shape, generator=g)

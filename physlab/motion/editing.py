@@ -103,8 +103,9 @@ def drag_trajectory(trajectory, index, point, radius=DRAG_RADIUS):
         raise ValueError(f"index {index} is outside the trajectory's {len(p)} samples")
     q = _point(point)
     i = int(index) % len(p)
-    if radius < 0:
-        raise ValueError(f"radius must be >= 0 samples, got {radius}")
+    if isinstance(radius, bool) or not isinstance(radius, (int, float, np.integer, np.floating)) \
+            or not np.isfinite(radius) or radius < 0:
+        raise ValueError(f"radius must be a finite number >= 0 samples, got {radius!r}")
     k = np.arange(len(p))
     w = (k == i).astype(float) if radius == 0 else np.exp(-(k - i) ** 2 / (2 * (radius / 2) ** 2))
     return p + w[:, None] * (q - p[i])

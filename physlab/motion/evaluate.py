@@ -819,9 +819,11 @@ def format_sketch_table(rows, noise=0.0, protocol="cross"):
 # * **AUJ** and **PJ** (:func:`~physlab.motion.metrics.jerk`, FlowMDM's definitions,
 #   per-frame units) over the transition and two frames on each side; the real windows' PJ is
 #   the target (the paper: "close to GT is better");
-# * **MPJPE** to the real frames of the transition (m), the largest **step ratio** at the
-#   junction (:func:`~physlab.motion.blend.junction_step_ratio`, the real windows' value
-#   alongside), bone-length variation and floor penetration of the filled windows.
+# * **MPJPE** to the real frames of the transition (m), the largest **step ratio** over the
+#   frames a method changed (:func:`~physlab.motion.blend.junction_step_ratio` on
+#   :attr:`~physlab.motion.blend.BlendResult.window`: the gap, and for ``inversion`` /
+#   ``inpaint`` the context frames they cross-fade too; the real windows' value alongside),
+#   bone-length variation and floor penetration of the filled windows.
 #
 # ``python -m physlab.motion.evaluate --blending`` prints the table.
 
@@ -911,7 +913,9 @@ def evaluate_blending(windows=32, transition=TRANSITION, methods=tuple(BLEND_ROW
             def text_motion(x):
                 return fid(ref, ev.encode_motion(x))
 
-    def row(filled, seconds):
+    def row(filled, seconds, changed=None):
+        """``changed``: per window, the slice the method changed (default: the gap)."""
+        changed = changed or [slice(ca, ca + l)] * len(filled)
         auj, pj = jerk(filled[:, lo:hi])
         r = {"FID": text_motion(filled) if text_motion else float("nan"),
              "AUJ": auj, "PJ": pj,
@@ -921,9 +925,9 @@ def evaluate_blending(windows=32, transition=TRANSITION, methods=tuple(BLEND_ROW
              "context": float(np.mean(np.linalg.norm(
                  np.concatenate([filled[:, :ca], filled[:, ca + l:]], axis=1)
                  - np.concatenate([gt[:, :ca], gt[:, ca + l:]], axis=1), axis=-1))),
-             "step_ratio": float(np.max([junction_step_ratio(f, slice(ca, ca + l),
-                                                              [g[:ca], g[ca + l:]])
-                                         for f, g in zip(filled, gt)])),
+             "step_ratio": float(np.max([junction_step_ratio(
+                 f, slice(max(w.start, 1), min(w.stop, T - 1)), [g[:ca], g[ca + l:]])
+                 for f, g, w in zip(filled, gt, changed)])),
              "bones": float(np.max(bone_length_variation(filled))),
              "floor": float(np.mean(floor_penetration(filled))),
              "seconds": seconds}
@@ -931,13 +935,14 @@ def evaluate_blending(windows=32, transition=TRANSITION, methods=tuple(BLEND_ROW
 
     rows = {"real": row(gt, 0.0)}
     for method in methods:
-        out, t0 = [], time.perf_counter()
+        out, changed, t0 = [], [], time.perf_counter()
         for i in _progress(range(n), progress, method):
             res = blend(gt[i, :ca], gt[i, ca + l:], transition=l,
                         actions=(data["text"][i], data["text"][i]), generator=generator,
                         seed=seed + i, **{**BLEND_ROWS[method], **(blend_options or {})})
             out.append(res.joints)
-        rows[method] = row(np.stack(out), (time.perf_counter() - t0) / n)
+            changed.append(res.window)
+        rows[method] = row(np.stack(out), (time.perf_counter() - t0) / n, changed)
     return rows
 
 
@@ -1045,14 +1050,17 @@ def main(argv=None):
 
     torch.set_num_threads(args.num_threads)
     if args.blending:
-        table = format_blending_table(evaluate_blending(
+        rows = evaluate_blending(
             windows=args.windows, transition=args.transition, seed=args.seed,
             data_root=args.data_root, evaluator=None if args.no_evaluator else args.evaluator,
-            progress=not args.no_progress), args.transition)
+            generator=None if args.control is None else _load(args.control, "--control",
+                                                                need_control=False),
+            progress=not args.no_progress)
+        table = format_blending_table(rows, args.transition)
         print(table)
         if args.out is not None:
             atomic_write_text(Path(args.out) / "blending.md", table + "\n")
-        return {}
+        return rows
     if args.control is None:
         raise ValueError("--control is required (a control checkpoint, e.g. "
                          "data/motion/sketch2anim_control.pt) unless --blending is given")

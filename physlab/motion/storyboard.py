@@ -4,7 +4,8 @@ Fig. 1, supp. D).
 A :class:`Storyboard` is a list of :class:`StoryboardFrame`: an action text plus any of a
 keypose and joint trajectories, in 3D (metres, the clip's canonical frame) or drawn in 2D in
 a :class:`~physlab.motion.camera.Camera` view (normalised image units; a frame may also keep
-the :class:`~physlab.motion.sketch.Sketch` it came from, whose conditions it then uses).
+the :class:`~physlab.motion.sketch.Sketch` it came from, for display: its conditions are the
+ones :meth:`StoryboardFrame.from_sketch` read from it).
 :func:`storyboard_to_motion` generates one clip per frame with
 :func:`~physlab.motion.generate` (seed ``seed + i`` for frame ``i``), places each clip after
 the previous one and joins them with ``transition`` frames (:mod:`physlab.motion.blend`,
@@ -33,7 +34,7 @@ from physlab._io import JsonDocument
 
 from .blend import BLEND_METHODS, TRANSITION, blend, place_after
 from .camera import Camera
-from .conditions import KEYPOSE_AT, build_condition, build_sketch
+from .conditions import KEYPOSE_AT, N_FRAMES, build_condition, build_sketch
 
 __all__ = ["StoryboardFrame", "Storyboard", "StoryboardAnimation", "storyboard_to_motion",
            "animate_storyboard", "STORYBOARD_VERSION"]
@@ -270,7 +271,11 @@ class StoryboardAnimation:
 
     def frame_at(self, k):
         """Index of the storyboard frame whose clip (or the transition into it) plays at
-        animation frame ``k``."""
+        animation frame ``k`` (``0 <= k < len(joints)``)."""
+        n = len(self.joints)
+        if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or not 0 <= k < n:
+            raise IndexError(f"animation frame {k!r} out of range: the animation has {n} "
+                             f"frames (0..{n - 1})")
         for i, s in enumerate(self.segments):
             if k < s.stop:
                 return i
@@ -315,6 +320,13 @@ def animate_storyboard(storyboard, transition=TRANSITION, seed=0, progress=False
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
         raise ValueError(f"seed must be an integer >= 0, got {seed!r}")
     storyboard.validate()
+    if method != "concat" and len(storyboard) > 1:    # before the clips: fail fast
+        from .blend import _check_transition
+
+        upper = N_FRAMES - 2 if method in ("inversion", "inpaint") else None
+        if _check_transition(transition, upper) < 1:
+            raise ValueError(f"transition must be >= 1 frame for method {method!r} (use "
+                             f"method='concat' for none), got {transition}")
     reserved = sorted({"actions", "generator", "seed", "method", "transition"}
                       & set(blend_options or {}))
     if reserved:
@@ -324,7 +336,14 @@ def animate_storyboard(storyboard, transition=TRANSITION, seed=0, progress=False
 
     gen = load_generator(checkpoint)
     n = len(storyboard)
-    bar = tqdm(total=2 * n - 1, disable=not progress, desc="storyboard")
+    with tqdm(total=2 * n - 1, disable=not progress, desc="storyboard") as bar:
+        return _animate(storyboard, gen, bar, transition, seed, method, blend_options,
+                        common_skeleton, generate_options)
+
+
+def _animate(storyboard, gen, bar, transition, seed, method, blend_options, common_skeleton,
+             generate_options):
+    n = len(storyboard)
     clips, gen_s, blend_s = [], [], []
     for i, frame in enumerate(storyboard.frames):
         t0 = time.perf_counter()
@@ -357,7 +376,6 @@ def animate_storyboard(storyboard, transition=TRANSITION, seed=0, progress=False
         segments.append(slice(res.transition.stop, len(motion)))
         blend_s.append(res.seconds)
         bar.update(1)
-    bar.close()
     return StoryboardAnimation(motion, clips, segments, transitions, windows, placements,
                                {"generate": gen_s, "blend": blend_s})
 

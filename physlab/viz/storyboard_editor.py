@@ -54,7 +54,7 @@ import numpy as np
 
 from physlab.motion.blend import BLEND_METHODS, TRANSITION
 from physlab.motion.camera import Camera
-from physlab.motion.conditions import KEYPOSE_AT
+from physlab.motion.conditions import KEYPOSE_AT, N_FRAMES
 from physlab.motion.sketch import Sketch
 from physlab.motion.skeleton import JOINT_NAMES, KINEMATIC_CHAINS, PARENTS
 from physlab.motion.storyboard import Storyboard, StoryboardFrame
@@ -366,7 +366,8 @@ class StoryboardEditor(CanvasWidget):
                                    continuous_update=False)
         self.yaw = w.FloatSlider(min=-90, max=90, step=1, description="yaw°",
                                  continuous_update=False)
-        self.transition = w.IntSlider(value=TRANSITION, min=0, max=40, description="transition",
+        self.transition = w.IntSlider(value=TRANSITION, min=0, max=N_FRAMES - 2,
+                                      description="transition",
                                       continuous_update=False,
                                       tooltip="frames between clips; 0 = a plain cut")
         self.method = w.Dropdown(options=list(BLEND_METHODS), value="inversion",
@@ -744,7 +745,7 @@ class StoryboardEditor(CanvasWidget):
                                  seed=int(self.seed.value), progress=True, method=method,
                                  **self.options)
         t1 = time.perf_counter()
-        self.animation, self.animated = anim, sb
+        self.animation, self.animated = anim, copy.deepcopy(sb)   # the canvas edits sb's sketch
         self.files.value, self.exported = "", {}
         self._say(f"generated {len(anim.joints)} frames in {t1 - t0:.1f} s; rendering the "
                   "preview…")

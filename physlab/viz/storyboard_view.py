@@ -40,7 +40,8 @@ from physlab.motion.skeleton import JOINT_NAMES, KINEMATIC_CHAINS, PARENTS
 
 __all__ = ["DEFAULT_CAMERA", "COLORS", "FRAME_COLORS", "EXPORT_FORMATS", "EXPORT_FILES",
            "FrameView", "frame_camera", "frame_view", "storyboard_contact_sheet",
-           "sketch_overlay_frames", "overlay_pixel", "export_storyboard", "check_bvh"]
+           "sketch_overlay_frames", "overlay_pixel", "export_storyboard", "check_bvh",
+           "resample_frames", "ANIMATION_FPS"]
 
 #: The view of a frame that has no camera of its own and a storyboard without one: a 3/4
 #: view from slightly above.
@@ -545,6 +546,27 @@ def _check_formats(formats):
     return tuple(dict.fromkeys(formats))
 
 
+#: Frame rate of a storyboard animation (the generator's clips are 20 fps).
+ANIMATION_FPS = 20.0
+
+
+def resample_frames(joints, fps_in, fps_out):
+    """``joints`` (T, ...) sampled at ``fps_in`` resampled to ``fps_out`` over the same
+    duration: returns ``(resampled (T', ...), nearest (T',) int)`` with ``T' = round((T − 1)
+    fps_out / fps_in) + 1``, positions linear in time between the two nearest input frames,
+    ``nearest`` the index of the nearest input frame (for images). The same rate returns the
+    input unchanged."""
+    x = np.asarray(joints, dtype=float)
+    if fps_out == fps_in:
+        return x, np.arange(len(x))
+    n = int(round((len(x) - 1) * fps_out / fps_in)) + 1
+    t = np.linspace(0.0, len(x) - 1.0, n)                 # output times in input frames
+    i0 = np.minimum(np.floor(t).astype(int), len(x) - 2) if len(x) > 1 else np.zeros(n, int)
+    w = (t - i0).reshape((-1,) + (1,) * (x.ndim - 1))
+    i1 = np.minimum(i0 + 1, len(x) - 1)
+    return (1 - w) * x[i0] + w * x[i1], np.rint(t).astype(int)
+
+
 def export_storyboard(storyboard, animation, folder,
                       formats=("bvh", "gif", "mp4", "sketch_gif", "json", "png"), fps=20,
                       backend="matplotlib", progress=False):
@@ -565,7 +587,10 @@ def export_storyboard(storyboard, animation, folder,
     storyboard, animation : as in :func:`storyboard_contact_sheet`.
     folder : str or Path.
     formats : iterable of names from :data:`EXPORT_FORMATS` (ValueError naming unknown ones).
-    fps : float > 0, frame rate of the BVH and the videos (the animation is 20 fps).
+    fps : float > 0, frame rate of the BVH and the videos. The animation is 20 fps; at
+        another rate its joints are resampled in time (linearly; :func:`resample_frames`) and
+        the overlay GIF shows the nearest 20-fps frame, so every file lasts as long as the
+        animation.
     backend : ``"matplotlib"`` | ``"pyvista"`` | ``"auto"`` for the capsule human.
     progress : tqdm bar over the files (and the render).
 
@@ -587,26 +612,28 @@ def export_storyboard(storyboard, animation, folder,
 
         steps = tqdm(formats, desc="export", leave=False)
     rendered = None
+    joints, nearest = resample_frames(animation.joints, ANIMATION_FPS, fps)
     out = {}
     for f in steps:
         p = paths[f]
         if f == "bvh":
             from physlab.motion.export import joints_to_bvh
 
-            out[f] = joints_to_bvh(animation.joints, p, fps=fps)
+            out[f] = joints_to_bvh(joints, p, fps=fps)
         elif f in ("gif", "mp4"):
             from physlab.render import frames_to_gif, frames_to_mp4
             from physlab.viz.view3d import render_motion
 
             if rendered is None:
-                rendered = np.asarray(render_motion(animation.joints, backend=backend,
+                rendered = np.asarray(render_motion(joints, backend=backend,
                                                     progress=progress))
             out[f] = (frames_to_gif(rendered, p, fps=fps) if f == "gif"
                       else frames_to_mp4(rendered, p, fps=fps))
         elif f == "sketch_gif":
             from physlab.render import frames_to_gif
 
-            out[f] = frames_to_gif(sketch_overlay_frames(storyboard, animation), p, fps=fps)
+            frames = sketch_overlay_frames(storyboard, animation)
+            out[f] = frames_to_gif([frames[k] for k in nearest], p, fps=fps)
         elif f == "json":
             out[f] = Path(storyboard.save(p))
         else:                                                            # "png"

@@ -134,7 +134,33 @@ def test_bad_input(gen):
     with pytest.raises(ValueError, match="guidance"):
         blend(a, a, 20, method="inversion", actions=("a person walks",) * 2, generator=gen,
               guidance=(1,))
+    for bad in (0, -5, True, "x"):
+        with pytest.raises(ValueError, match="steps must be an integer >= 1"):
+            blend(a, a, 20, method="inpaint", actions=("a person walks",) * 2, generator=gen,
+                  steps=bad)
     assert set(BLEND_METHODS) == {"concat", "linear", "slerp", "squad", "inpaint", "inversion"}
+
+
+def test_model_blends_leave_the_scheduler_as_they_found_it(gen):
+    """Blending sets its own DDIM timesteps; the generator's scheduler gets its previous
+    sampling order back (also when the blend fails), and 'inpaint' needs one feature row
+    per frame ('absolute' features)."""
+    import copy
+
+    a = _walk()
+    sched = gen.scheduler
+    sched.set_timesteps(7)
+    before = sched.timesteps.clone()
+    for method in ("inversion", "inpaint"):
+        blend(a, place_after(a, a, 20), 20, method, actions=("a person walks",) * 2,
+              generator=gen, steps=3, guidance=(0, 0))
+        assert sched.num_inference_steps == 7 and torch.equal(sched.timesteps, before)
+    rel = copy.copy(gen)
+    rel.config = copy.copy(gen.config)
+    rel.config.representation = "relative"
+    with pytest.raises(ValueError, match="method='inpaint' needs a checkpoint of 'absolute'"):
+        blend(a, place_after(a, a, 20), 20, "inpaint", actions=("a person walks",) * 2,
+              generator=rel)
 
 
 def test_place_after_uses_the_mean_speed_of_both_clips():

@@ -93,6 +93,9 @@ def test_bad_input():
         drag_trajectory(np.zeros((5, 3)), 5, [0, 0, 0])
     with pytest.raises(ValueError, match="point"):
         drag_trajectory(np.zeros((5, 3)), 1, [0, 0])
+    for radius in (float("nan"), -1, True, "2"):
+        with pytest.raises(ValueError, match="radius must be a finite number >= 0"):
+            drag_trajectory(np.zeros((5, 3)), 1, [0, 0, 0], radius=radius)
     with pytest.raises(ValueError, match="unknown keys"):
         regenerate("a person walks", {"keypose": np.zeros((22, 3))})
     with pytest.raises(ValueError, match="the string 'pelvis'"):

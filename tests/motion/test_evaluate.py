@@ -345,3 +345,26 @@ def test_blending_table_on_phase_change_windows(real_data):
     assert table.count("\n| ") == 5 and "| inversion |" in table       # header + 4 rows
     with pytest.raises(ValueError, match="methods must come from"):
         evaluate_blending(windows=8, methods=("morph",), evaluator=None, progress=False)
+
+
+def test_blending_cli_uses_the_given_checkpoint_and_returns_the_rows(monkeypatch):
+    """``--blending --control PATH`` blends with that generator (a missing file is an error
+    naming --control) and ``main`` returns the table's rows."""
+    import physlab.motion.evaluate as E
+
+    with pytest.raises(FileNotFoundError, match="--control checkpoint runs/none.pt"):
+        E.main(["--blending", "--control", "runs/none.pt", "--no-progress"])
+    seen = {}
+
+    def fake(**kw):
+        seen.update(kw)
+        return {"real": {"FID": 0.0, "AUJ": 1.0, "PJ": 0.1, "MPJPE": 0.0, "context": 0.0,
+                         "step_ratio": 1.0, "bones": 0.0, "floor": 0.0, "seconds": 0.0}}
+    monkeypatch.setattr(E, "evaluate_blending", fake)
+    rows = E.main(["--blending", "--windows", "3", "--no-progress", "--no-evaluator"])
+    assert seen["generator"] is None and seen["windows"] == 3 and list(rows) == ["real"]
+    from physlab.motion.sampling import DEFAULT_CHECKPOINT
+
+    E.main(["--blending", "--control", str(DEFAULT_CHECKPOINT), "--no-progress",
+            "--no-evaluator"])
+    assert seen["generator"].path == DEFAULT_CHECKPOINT and seen["generator"].has_control

@@ -166,3 +166,42 @@ def test_animate_errors(tmp_path):
         animate_storyboard(_board(), method="morph")
     with pytest.raises(ValueError, match="seed"):
         animate_storyboard(_board(), seed=-1)
+
+
+def test_frame_at_range_and_bad_transitions_fail_before_generating(animation, monkeypatch):
+    """frame_at refuses frames outside the animation; a transition the method cannot take
+    is an error before any clip is generated (the generator is never called)."""
+    n = len(animation.joints)
+    assert animation.frame_at(n - 1) == 2
+    for k in (-1, n, 2.0, True):
+        with pytest.raises(IndexError, match=f"animation frame {k!r} out of range"):
+            animation.frame_at(k)
+    import physlab.motion.sampling as sampling
+
+    def refuse(*_a, **_k):
+        raise AssertionError("the generator was loaded")
+    monkeypatch.setattr(sampling, "load_generator", refuse)
+    with pytest.raises(ValueError, match=r"transition must be an integer number of frames in "
+                                         r"0\.\.38, got 39"):
+        animate_storyboard(_board(), transition=39)
+    with pytest.raises(ValueError, match="transition must be >= 1 frame for method 'linear'"):
+        animate_storyboard(_board(), transition=0, method="linear")
+
+
+def test_one_frame_own_skeletons_and_blend_options():
+    """A one-frame storyboard is its clip; common_skeleton=False keeps each clip's own bones
+    (the clips outside the windows are the generated ones); blend_options reach blend()."""
+    one = animate_storyboard(Storyboard([StoryboardFrame("a person bows")]), seed=5, **FAST)
+    assert one.joints.shape == (40, 22, 3) and one.windows == [] and one.transitions == []
+    assert np.array_equal(one.joints, one.clips[0])
+    own = animate_storyboard(_board(), seed=3, common_skeleton=False, method="linear", **FAST)
+    same = animate_storyboard(_board(), seed=3, method="linear", **FAST)
+    from physlab.motion.body import clip_bone_lengths
+
+    l0, l1 = clip_bone_lengths(own.clips[0]), clip_bone_lengths(own.clips[1])
+    assert np.abs(l0 - l1).max() > 1e-3                   # generated clips: own bones
+    assert np.allclose(clip_bone_lengths(same.clips[0]), clip_bone_lengths(same.clips[1]))
+    a = animate_storyboard(_board(), seed=3, blend_options={"guidance": (0, 0)}, **FAST)
+    b = animate_storyboard(_board(), seed=3, **FAST)
+    assert not np.allclose(a.joints[a.windows[0]], b.joints[b.windows[0]])
+    assert np.array_equal(a.joints[:a.windows[0].start], b.joints[:b.windows[0].start])

@@ -264,3 +264,21 @@ def test_generate_preview_and_export(tmp_path):
     e.export_button.click()
     assert "changed since Generate" in e.status
     assert Storyboard.load(e.exported["json"]).frames[1].action == "a person bows"
+
+
+def test_strokes_drawn_after_generate_are_not_exported(tmp_path):
+    """The canvas edits the frame's Sketch in place: the editor exports a copy of what it
+    generated, not the drawing as it is now."""
+    e = StoryboardEditor(EXAMPLE, generate_options=FAST, export_dir=str(tmp_path / "out"))
+    e.frame_buttons[0].click()
+    wrists = e.canvas.sketch.joints[[20, 21]]
+    e.canvas.add_stroke(wrists[0] + np.array([[0.0, 0.0], [20.0, -5.0], [40.0, -10.0]]),
+                        "trajectory")                          # edited: a fresh frame
+    n_strokes = len(e.canvas.sketch.strokes)
+    e.generate_button.click()
+    assert _text(e).startswith("generated"), e.status
+    e.canvas.add_stroke(wrists[1] + np.array([[0.0, 0.0], [-30.0, 0.0]]), "trajectory")
+    e.export_formats = ("json",)
+    e.export_button.click()
+    assert "changed since Generate" in e.status
+    assert len(Storyboard.load(e.exported["json"]).frames[0].sketch.strokes) == n_strokes

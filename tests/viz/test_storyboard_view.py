@@ -28,6 +28,7 @@ from physlab.viz.storyboard_view import (
     frame_camera,
     frame_view,
     overlay_pixel,
+    resample_frames,
     sketch_overlay_frames,
     storyboard_contact_sheet,
 )
@@ -257,6 +258,38 @@ def test_export_errors(board, anim, tmp_path):
         export_storyboard(board, anim, tmp_path / "x", formats=("json",), fps=0)
     out = export_storyboard(board, anim, tmp_path / "y", formats="json")     # one name
     assert list(out) == ["json"]
+
+
+def test_resample_frames_keeps_the_duration_and_linear_motion():
+    """A motion linear in time resamples exactly, first and last frames kept; the nearest
+    indices pick the closest input frame; the same rate is the identity."""
+    t = np.arange(21.0)
+    x = np.stack([t, 2 * t, -t], axis=-1)[:, None] * np.ones((1, 22, 1))    # (21, 22, 3)
+    y, near = resample_frames(x, 20, 30)
+    assert y.shape == (31, 22, 3)
+    np.testing.assert_allclose(y[:, 0, 0], np.linspace(0, 20, 31), atol=1e-12)
+    np.testing.assert_allclose(y[:, 5], y[:, 0])
+    np.testing.assert_array_equal(near, np.rint(np.linspace(0, 20, 31)).astype(int))
+    y, near = resample_frames(x, 20, 10)
+    np.testing.assert_allclose(y[:, 0, 0], np.arange(0, 21, 2.0))
+    same, near = resample_frames(x, 20, 20)
+    assert same is not None and np.array_equal(same, x) and np.array_equal(near, t.astype(int))
+
+
+@pytest.mark.filterwarnings(BVH_WARNING)
+def test_export_at_another_frame_rate_lasts_as_long(board, anim, tmp_path):
+    """fps=30: 1.5x the frames at 1/30 s each in the BVH and both GIFs (same duration)."""
+    out = export_storyboard(board, anim, tmp_path, formats=("bvh", "sketch_gif"), fps=30)
+    n = int(round((len(anim.joints) - 1) * 1.5)) + 1
+    info = check_bvh(out["bvh"], n_frames=n, fps=30)
+    assert info["n_frames"] == n and info["fps"] == pytest.approx(30)
+    np.testing.assert_allclose(info["joints"][0, 0], anim.joints[0, 0], atol=1e-6)
+    np.testing.assert_allclose(info["joints"][-1, 0], anim.joints[-1, 0], atol=1e-6)
+    from PIL import Image, ImageSequence
+
+    with Image.open(out["sketch_gif"]) as gif:      # repeated frames may be merged
+        seconds = sum(f.info["duration"] for f in ImageSequence.Iterator(gif)) / 1000
+    assert seconds == pytest.approx(n / 30, abs=0.05)
 
 
 # ----------------------------------------------------------------------------- BVH
