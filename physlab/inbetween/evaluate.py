@@ -28,6 +28,12 @@ AnimatedDrawings characters posed by their BVH motions — by joint error (px) a
 of the in-betweens they drive, beside the in-between driven by the true animation and the
 cross-dissolve.
 
+Occlusions on real drawings (``--occluded --source animated_drawings``,
+:func:`evaluate_occluded_drawings`): AnimatedDrawings characters posed by BVH motions whose hand
+crosses the body (:data:`AD_OCCLUDED_SHOTS`, found by :func:`scan_occluded_shots`), occlusion
+regions suggested by :func:`~physlab.inbetween.occlusion.suggest_occlusions` and joint depths
+from the BVH; physlab layered vs one sheet vs the baselines against the posed drawing.
+
 One's own keyframe pair — two keys, their skeletons, and in-betweens drawn by hand where
 there are some — is scored the same way by :func:`evaluate_folder` (``physlab evaluate
 inbetween --pairs DIR``; the folder layout is :mod:`physlab.inbetween.pair_folder`'s).
@@ -59,7 +65,10 @@ __all__ = ["METHODS", "METRICS", "run_methods", "frame_scores", "score_frames",
            "AD_SHOTS", "pose_drawing", "animated_drawing_inbetween", "INTERPOLATION_SOURCES",
            "MOCAP_CLIPS", "CHARACTER_BANDAI_MAPPING", "InterpolationPair", "interpolation_pairs",
            "interpolation_errors", "interpolation_psnr", "interpolation_table",
-           "compare_interpolation", "main"]
+           "compare_interpolation", "BODY_BONES", "LIMB_BONES", "CAPSULE_RADIUS",
+           "AD_OCCLUDED_SHOTS", "limb_body_overlaps", "scan_occluded_shots",
+           "OccludedDrawingPair", "occluded_drawing_pairs", "evaluate_occluded_drawings",
+           "main"]
 
 METHODS = ("cross_dissolve", "flow", "physlab_diagonal", "physlab")
 #: Extra row of occluded pairs (kind "occluded"): physlab without the occlusion layers.
@@ -276,9 +285,10 @@ def evaluate_pairs(pairs, n_frames=11, progress=True, interpolator=None, sheets=
         for m in methods:
             row = {"pair": pair.name, "kind": pair.kind, "method": m, "seconds": sec[m]}
             row.update(score_frames(frames[m], truth))
-            if m.startswith("physlab"):
-                row["handle_error_px"] = float(res.handle_error.max())
-                row["flipped"] = int(res.flipped.sum())
+            if m.startswith("physlab"):  # the one-sheet row from its own run
+                r_m = one if m == SINGLE_SHEET else res
+                row["handle_error_px"] = float(r_m.handle_error.max())
+                row["flipped"] = int(r_m.flipped.sum())
             if m in ("physlab", "physlab_diagonal"):
                 row["q_fwd_min"] = float(res.q_fwd.min())
                 row["q_bwd_min"] = float(res.q_bwd.min())
@@ -482,6 +492,382 @@ def animated_drawing_inbetween(name, motion=None, t0=None, t1=None, n_frames=11,
             "frames": poses.frames, "flipped": int(res.flipped.sum()),
             "max_handle_error_px": float(res.handle_error.max()),
             "seconds": time.perf_counter() - tic}
+
+
+# ------------------------------------------------------------ real drawings with occlusions
+#: Drawing bones (named by their end joint's base name) that make up the body, and the
+#: suffixes of limb bones; a "limb in front of the body" is a limb bone whose capsule meets
+#: a body bone's (:func:`limb_body_overlaps`). The short shoulder and pelvis bones are not
+#: body bones: a hand at its own shoulder is an arm folded on itself, at its hip an arm
+#: hanging beside the body.
+BODY_BONES = ("hip", "torso", "neck")
+LIMB_BONES = ("_elbow", "_hand", "_knee", "_foot")
+#: Capsule radius of the overlap test, as a fraction of the rest skeleton's extent (the
+#: default of :func:`~physlab.inbetween.occlusion.suggest_occlusions`).
+CAPSULE_RADIUS = 0.06
+
+#: Occluded AnimatedDrawings shots: name → (character, BVH motion, key time 0 [s], key time 1
+#: [s]). Chosen by :func:`scan_occluded_shots` (characters scaled to 256 px, 0.5 s windows
+#: every 0.1 s over the six motions, ``view="front"``), the opposite of :data:`AD_SHOTS`'
+#: scan: windows in which exactly one key has a limb bone whose capsule (radius
+#: :data:`CAPSULE_RADIUS` of the skeleton's extent) overlaps a body bone's that it does not
+#: overlap in the drawing itself, whose joints stay inside the image, and whose keys differ by
+#: ≥ 10 % of the image; ranked by the overlap's depth (px). Kept: the best window of each
+#: character with one body and two arms and legs (char1–char4; char5's six arms and char6's
+#: four legs overlap each other), at most two shots per motion. In all four a hand crosses
+#: the torso or neck at the second key (dab: the arm folds up across the chest; zombie: the
+#: arms reach forward, in front of the body) or leaves it (char2's dab).
+AD_OCCLUDED_SHOTS = {
+    "char4_dab": ("char4", "dab", 3.7, 4.2),
+    "char2_dab": ("char2", "dab", 4.7, 5.2),
+    "char3_zombie": ("char3", "zombie", 1.4, 1.9),
+    "char1_zombie": ("char1", "zombie", 1.4, 1.9),
+}
+
+
+def _bone_capsules(skeleton):
+    """Bones as segments: ``(names (B,), a (B, 2), b (B, 2), bones (B, 2))``."""
+    bones = skeleton.bones
+    return ([skeleton.names[c] for _, c in bones], skeleton.xy[bones[:, 0]],
+            skeleton.xy[bones[:, 1]], bones)
+
+
+def limb_body_overlaps(skeleton, rest, radius):
+    """Limb bones whose capsule overlaps a body bone's in ``skeleton`` but not in ``rest``.
+
+    Capsules of radius ``radius`` px around every bone (named by its end joint); limb bones
+    end in ``*_elbow``, ``*_hand``, ``*_knee``, ``*_foot`` (:data:`LIMB_BONES`, extra-limb
+    suffixes allowed), body bones are :data:`BODY_BONES`. Pairs that already overlap in the
+    drawing's own pose ``rest`` (a thigh meeting the belly) are not occlusions the motion made.
+
+    Parameters
+    ----------
+    skeleton : Skeleton, the posed joints (pixels).
+    rest : Skeleton of the same topology, the drawing's own pose (pixels, same scale).
+    radius : float > 0, capsule radius (px).
+
+    Returns
+    -------
+    list of ``(limb joint, body joint, overlap px)``, overlap = ``2·radius − distance`` > 0,
+    deepest first.
+
+    Raises
+    ------
+    ValueError for a radius that is not a positive number; the errors of
+    :func:`~physlab.inbetween.skeleton.check_compatible` for skeletons that differ.
+    """
+    from .occlusion import _segment_distance
+    from .retarget import _base_name
+    from .skeleton import Skeleton, check_compatible
+
+    if not isinstance(skeleton, Skeleton) or not isinstance(rest, Skeleton):
+        raise TypeError(f"skeleton and rest must be Skeletons, got {type(skeleton).__name__} "
+                        f"and {type(rest).__name__}")
+    check_compatible(rest, skeleton, ("rest", "skeleton"))
+    if isinstance(radius, bool) or not isinstance(radius, (int, float, np.number)) \
+            or not np.isfinite(radius) or radius <= 0:
+        raise ValueError(f"radius must be a positive number of pixels, got {radius!r}")
+    names, _, _, bones = _bone_capsules(skeleton)
+    base = [_base_name(n) for n in names]
+    limbs = [i for i, b in enumerate(base) if b.endswith(LIMB_BONES)]
+    body = [i for i, b in enumerate(base) if b in BODY_BONES]
+    out = []
+    for i in limbs:
+        for j in body:
+            if set(bones[i].tolist()) & set(bones[j].tolist()):
+                continue  # bones sharing a joint (the upper arm and the shoulder bone)
+            gap = [2 * radius - _segment_distance(*s.xy[bones[i]], *s.xy[bones[j]])
+                   for s in (skeleton, rest)]
+            if gap[0] > 0 and gap[1] <= 0:
+                out.append((names[i], names[j], float(gap[0])))
+    return sorted(out, key=lambda o: -o[2])
+
+
+def scan_occluded_shots(characters=None, motions=None, size=256, span=0.5, step=0.1,
+                        margin=0.04, min_move=0.1):
+    """Scan the AnimatedDrawings characters × BVH motions for keyframe pairs with a limb in
+    front of (or behind) the body — how :data:`AD_OCCLUDED_SHOTS` was chosen.
+
+    Every window ``[t0, t0 + span]`` (seconds, starting every ``step`` from the motion's
+    AnimatedDrawings start frame) poses the character scaled to ``size`` px
+    (``view="front"``) at its two keys and 3 in-betweens. A window qualifies when exactly one
+    key has :func:`limb_body_overlaps` (capsule radius :data:`CAPSULE_RADIUS` of the rest
+    skeleton's extent) — the limb swings onto or off the body —, every joint stays ``margin``
+    of the image inside it, and some joint moves ≥ ``min_move`` of the image between the keys.
+
+    Parameters
+    ----------
+    characters : iterable of names in ``physlab.datasets.ANIMATED_DRAWINGS`` (default all).
+    motions : iterable of names in :data:`~physlab.inbetween.retarget.ANIMATED_DRAWINGS_MOTIONS`
+        (default all).
+    size : int ≥ 64, image size (px). span, step : float > 0, seconds.
+    margin, min_move : floats in [0, 0.5), fractions of ``size``.
+
+    Returns
+    -------
+    list of dicts (character, motion, t0, t1, key (0 or 1, the overlapping key), overlaps
+    (:func:`limb_body_overlaps` of that key), overlap_px (the deepest), move_px), the best
+    window per (character, motion), deepest overlap first.
+
+    Raises
+    ------
+    ValueError naming the argument for unknown names or out-of-range numbers;
+    FileNotFoundError when the external data folder is missing.
+    """
+    from ..datasets import ANIMATED_DRAWINGS
+    from .retarget import (ANIMATED_DRAWINGS_MOTIONS, ANIMATED_DRAWINGS_START_FRAMES,
+                           bvh_to_skeletons, load_motion)
+
+    characters = ANIMATED_DRAWINGS if characters is None else tuple(characters)
+    motions = tuple(ANIMATED_DRAWINGS_MOTIONS) if motions is None else tuple(motions)
+    for arg, names, known in (("characters", characters, ANIMATED_DRAWINGS),
+                              ("motions", motions, tuple(ANIMATED_DRAWINGS_MOTIONS))):
+        bad = [n for n in names if n not in known]
+        if bad or not names:
+            raise ValueError(f"{arg} must be a non-empty list of {known}, got unknown {bad}"
+                             if bad else f"{arg} is empty; give at least one of {known}")
+    if isinstance(size, bool) or not isinstance(size, (int, np.integer)) or size < 64:
+        raise ValueError(f"size must be an int ≥ 64 (px), got {size!r}")
+    for arg, v, lo, hi in (("span", span, 0.0, np.inf), ("step", step, 0.0, np.inf),
+                           ("margin", margin, -1e-12, 0.5), ("min_move", min_move, -1e-12, 0.5)):
+        if isinstance(v, bool) or not isinstance(v, (int, float, np.number)) or \
+                not lo < v < hi:
+            raise ValueError(f"{arg} must be a number in ({max(lo, 0):g}, {hi:g}), got {v!r}")
+    out = []
+    for name in characters:
+        img, _, rest = _scaled_drawing(name, size)
+        H, W = img.shape[:2]
+        radius = CAPSULE_RADIUS * float(np.ptp(rest.xy, axis=0).max())
+        lo, hi = margin * size, np.array([W, H]) - 1 - margin * size
+        for motion in motions:
+            bvh = load_motion(motion)
+            ref = ANIMATED_DRAWINGS_START_FRAMES[motion]
+            n_f = int(round(span * bvh.fps))
+            starts = np.arange(ref, bvh.n_frames - 1 - n_f, max(1, int(round(step * bvh.fps))))
+            if not len(starts):
+                continue
+            frames = (starts[:, None] + np.linspace(0, n_f, 5)[None]).ravel()
+            sks = bvh_to_skeletons(bvh, rest, frames=frames, reference_frame=ref)
+            best = None
+            for w, f0 in enumerate(starts):
+                win = sks[5 * w:5 * w + 5]
+                xy = np.stack([s.xy for s in win])
+                if (xy < lo).any() or (xy > hi).any():
+                    continue
+                move = float(np.linalg.norm(xy[-1] - xy[0], axis=1).max())
+                if move < min_move * size:
+                    continue
+                ov = [limb_body_overlaps(win[k], rest, radius) for k in (0, -1)]
+                if bool(ov[0]) == bool(ov[1]):
+                    continue
+                key = 0 if ov[0] else 1
+                depth = ov[key][0][2]
+                if best is None or depth > best["overlap_px"]:
+                    best = {"character": name, "motion": motion,
+                            "t0": round(float(f0 / bvh.fps), 3),
+                            "t1": round(float((f0 + n_f) / bvh.fps), 3), "key": key,
+                            "overlaps": ov[key], "overlap_px": depth, "move_px": move}
+            if best is not None:
+                out.append(best)
+    return sorted(out, key=lambda r: -r["overlap_px"])
+
+
+class OccludedDrawingPair:
+    """An AnimatedDrawings character posed by a BVH motion at two keys between which a limb
+    swings onto or off the body — a pair of kind "occluded" for :func:`evaluate_pairs`.
+
+    Ground truth follows the :func:`animated_drawing_inbetween` route: the drawing (padded,
+    scaled to ``size``) is the rest template, deformed into the BVH pose at every time
+    (:func:`pose_drawing`, each frame from the rest pose) — the keys are its frames at t = 0
+    and 1. Unlike that route the template is rendered back to front by the joints' depths
+    along the camera axis (:func:`~physlab.inbetween.retarget.bvh_joint_depths`; a
+    :class:`~physlab.inbetween.occlusion.LayeredTemplate` without regions, painter's order of
+    Sec. 5.1), so a limb the actor holds in front of the body is drawn over it, one held behind
+    under it. The drawing itself has no occlusion, so its single sheet deforms cleanly.
+
+    The occlusion annotation is made without a human (:meth:`occlusions`):
+    :func:`~physlab.inbetween.occlusion.suggest_occlusions` on each key, kept where its bone
+    pair is one of the key's :func:`limb_body_overlaps` (a limb on the body that the drawing
+    does not have), overlapping suggestions merged; no T-junctions (the suggestion has none);
+    joint depths from the BVH.
+
+    Parameters
+    ----------
+    name : str. character : "char1" … "char6". motion : a name of
+        :data:`~physlab.inbetween.retarget.ANIMATED_DRAWINGS_MOTIONS`.
+    t0, t1 : key times (seconds). size : int ≥ 64, the image's larger side (px).
+
+    Raises
+    ------
+    ValueError naming the argument for an unknown character or motion, times outside the
+    motion, a bad size; FileNotFoundError when the external data folder is missing.
+    """
+
+    kind = "occluded"
+
+    def __init__(self, name, character, motion, t0, t1, size=256):
+        from ..datasets import ANIMATED_DRAWINGS
+        from .retarget import (ANIMATED_DRAWINGS_MOTIONS, ANIMATED_DRAWINGS_START_FRAMES,
+                               load_motion)
+
+        if character not in ANIMATED_DRAWINGS:
+            raise ValueError(f"character must be one of {ANIMATED_DRAWINGS}, got {character!r}")
+        if motion not in ANIMATED_DRAWINGS_MOTIONS:
+            raise ValueError(f"motion must be one of {sorted(ANIMATED_DRAWINGS_MOTIONS)}, got "
+                             f"{motion!r}")
+        if isinstance(size, bool) or not isinstance(size, (int, np.integer)) or size < 64:
+            raise ValueError(f"size must be an int ≥ 64 (px), got {size!r}")
+        self.bvh = load_motion(motion)
+        self.ref = ANIMATED_DRAWINGS_START_FRAMES[motion]
+        for arg, t in (("t0", t0), ("t1", t1)):
+            if isinstance(t, bool) or not isinstance(t, (int, float, np.number)) or \
+                    not 0 <= t * self.bvh.fps <= self.bvh.n_frames - 1:
+                raise ValueError(f"{arg} must be a time in [0, {self.bvh.duration:.2f}] s of "
+                                 f"{motion!r}, got {t!r}")
+        self.name, self.character, self.motion = name, character, motion
+        self.t0, self.t1, self.size = float(t0), float(t1), int(size)
+        self.style = f"{character} · {motion} {t0:g}–{t1:g} s"
+        self.image, self.mask, self.rest = _scaled_drawing(character, self.size)
+        self.radius = CAPSULE_RADIUS * float(np.ptp(self.rest.xy, axis=0).max())
+        self.skeleton0, self.skeleton1 = self.skeleton_at([0.0, 1.0])
+        self._template, self._frames = None, {}
+
+    def __repr__(self):
+        return f"OccludedDrawingPair({self.name!r}, {self.style}, size={self.size})"
+
+    def skeleton_at(self, t):
+        """Skeletons (with BVH joint depths) at times ``t`` (m,) in [0, 1] of the shot."""
+        from .retarget import bvh_joint_depths, bvh_to_skeletons
+
+        ts = np.atleast_1d(np.asarray(t, dtype=float))
+        if ts.ndim != 1 or not np.all((ts >= 0) & (ts <= 1)):
+            raise ValueError(f"t must lie in [0, 1], got {t}")
+        frames = (self.t0 + ts * (self.t1 - self.t0)) * self.bvh.fps
+        sks = bvh_to_skeletons(self.bvh, self.rest, frames=frames, reference_frame=self.ref)
+        depth = bvh_joint_depths(self.bvh, self.rest, frames=frames, reference_frame=self.ref)
+        return [s.with_depth(d) for s, d in zip(sks, depth)]
+
+    def animation(self, n_frames):
+        """The BVH skeletal motion: ``n_frames`` Skeletons at ``t = linspace(0, 1, n)``."""
+        if isinstance(n_frames, bool) or not isinstance(n_frames, (int, np.integer)) \
+                or n_frames < 2:
+            raise ValueError(f"n_frames must be an int >= 2, got {n_frames!r}")
+        return self.skeleton_at(np.linspace(0.0, 1.0, int(n_frames)))
+
+    def ground_truth(self, t):
+        """The drawing posed at time(s) ``t``: (H, W, 4) float32 RGBA, or (m, H, W, 4)."""
+        from .occlusion import build_layered_template
+
+        if self._template is None:
+            self._template = build_layered_template(self.image, self.rest, (), mask=self.mask,
+                                                    name=self.character)
+        ts = np.atleast_1d(np.asarray(t, dtype=float))
+        todo = [x for x in ts if float(x) not in self._frames]
+        if todo:
+            for x, s in zip(todo, self.skeleton_at(todo)):
+                _, xs = pose_drawing(self._template, s)
+                self._frames[float(x)] = self._template.render(xs, skeleton=s)
+        out = np.stack([self._frames[float(x)] for x in ts])
+        return out if np.ndim(t) else out[0]
+
+    def keyframes(self):
+        """The two keys, (H, W, 4) float32 RGBA: the ground truth at t = 0 and 1."""
+        return self.ground_truth(0.0), self.ground_truth(1.0)
+
+    def occlusions(self):
+        """Suggested occlusion regions of both keys: ``(list, list)`` of
+        :class:`~physlab.inbetween.occlusion.Occlusion` (class docstring)."""
+        from scipy import ndimage
+
+        from .occlusion import Occlusion, suggest_occlusions
+
+        out = []
+        for key, sk in zip(self.keyframes(), (self.skeleton0, self.skeleton1)):
+            pairs = {frozenset(o[:2]) for o in limb_body_overlaps(sk, self.rest, self.radius)}
+            sug = [o for o in suggest_occlusions(key, sk, radius=self.radius,
+                                                 mask=key[..., 3] > 0.5)
+                   if frozenset(o.label.split("/")) in pairs]
+            # overlapping suggestions (one hand on torso and neck) become one region: the
+            # layered template takes at most two layers per region
+            if not sug:
+                out.append([])
+                continue
+            union = np.any([o.mask for o in sug], axis=0)
+            comps, k = ndimage.label(union)
+            regs = []
+            for c in range(1, k + 1):
+                m = comps == c
+                names = [o.label for o in sug if (o.mask & m).any()]
+                if m.sum() >= 16:
+                    regs.append(Occlusion(m, (), label="+".join(names)))
+            out.append(regs)
+        return tuple(out)
+
+
+def occluded_drawing_pairs(shots=None, size=256):
+    """:class:`OccludedDrawingPair` of every shot (default :data:`AD_OCCLUDED_SHOTS`)."""
+    shots = AD_OCCLUDED_SHOTS if shots is None else shots
+    if not isinstance(shots, dict) or not shots:
+        raise ValueError("shots must be a non-empty dict name -> (character, motion, t0, t1), "
+                         f"got {shots!r}")
+    return [OccludedDrawingPair(name, *shot, size=size) for name, shot in shots.items()]
+
+
+def evaluate_occluded_drawings(shots=None, size=256, n_frames=11, out=None, progress=True,
+                               **options):
+    """Occlusion evaluation on real drawings (issue 15): every :func:`occluded_drawing_pairs`
+    pair through :func:`evaluate_pairs` — physlab with layered templates from the suggested
+    occlusions, physlab as one sheet, cross-dissolve, flow — scored against the posed drawing.
+
+    Parameters
+    ----------
+    shots : dict name → (character, motion, t0, t1), default :data:`AD_OCCLUDED_SHOTS`.
+    size : int ≥ 64, image size (px). n_frames : int ≥ 3, frames per pair, keys included.
+    out : folder for ``table.md``, ``rows.json`` and a :func:`comparison_sheet` per pair
+        (``pairs/<name>.png``), or None.
+    progress : bool. options : passed to :func:`~physlab.inbetween.pipeline.inbetween`.
+
+    Returns
+    -------
+    dict with "rows" (:func:`evaluate_pairs` rows plus ``regions0``/``regions1``, the number of
+    suggested occlusion regions per key), "table" (metrics, :func:`format_table`), "physlab"
+    (per pair and variant: largest handle error, flipped triangles, seconds), "files", and
+    "skipped" (a reason, when the external data folder is missing: then nothing else is run).
+    """
+    from ..datasets import external_data_dir
+
+    if external_data_dir() is None:
+        return {"rows": [], "table": "", "physlab": "", "files": [],
+                "skipped": "external data folder not found (set PHYSLAB_EXTERNAL_DATA or "
+                           "provide ../shared/data with animated_drawings/)"}
+    if isinstance(n_frames, bool) or not isinstance(n_frames, (int, np.integer)) or n_frames < 3:
+        raise ValueError(f"n_frames must be an int ≥ 3 (keys included), got {n_frames!r}")
+    pairs = occluded_drawing_pairs(shots, size)
+    sheets = None if out is None else Path(out) / "pairs"
+    rows = evaluate_pairs(pairs, n_frames=n_frames, progress=progress, sheets=sheets, **options)
+    regions = {p.name: [len(o) for o in p.occlusions()] for p in pairs}
+    for r in rows:
+        r["regions0"], r["regions1"] = regions[r["pair"]]
+    summary = {k: v for k, v in summarize(rows).items() if k[0] == "occluded"}
+    table = format_table(summary)
+    lines = ["pair | regions key0/key1 | variant | max handle error px | flipped | s",
+             "--- | --- | --- | --- | --- | ---"]
+    for r in rows:
+        if r["method"] in ("physlab", SINGLE_SHEET):
+            lines.append(f"{r['pair']} | {r['regions0']}/{r['regions1']} | "
+                         f"{'layered' if r['method'] == 'physlab' else 'one sheet'} | "
+                         f"{r['handle_error_px']:.2f} | {r['flipped']} | {r['seconds']:.1f}")
+    stats = "\n".join(lines)
+    files = []
+    if out is not None:
+        import json
+
+        from .._io import atomic_write_text
+
+        files.append(atomic_write_text(Path(out) / "table.md", table + "\n\n" + stats + "\n"))
+        files.append(atomic_write_text(Path(out) / "rows.json", json.dumps(rows, indent=1)))
+        files += [sheets / f"{p.name}.png" for p in pairs]
+    return {"rows": rows, "table": table, "physlab": stats, "files": files, "skipped": None}
 
 
 # ----------------------------------------------------------------------------- interpolation
@@ -886,6 +1272,7 @@ def _parser():
                "  %(prog)s --real --skip-benchmark --out runs/real    # needs ../shared/data\n"
                "  %(prog)s --pairs my_pair/ --out runs/my_pair          # one's own triplet\n"
                "  %(prog)s --occluded --size 256 --out runs/occluded     # limbs crossing\n"
+               "  %(prog)s --occluded --source animated_drawings --out runs/ad_occluded\n"
                "  %(prog)s --interpolation                  # skeleton interpolation methods\n"
                "\na --pairs DIR folder:\n" + FOLDER_FORMAT.replace("%", "%%"))
     p.add_argument("--size", type=int, default=None,
@@ -922,6 +1309,12 @@ def _parser():
                    help="evaluate the occlusion benchmark instead (limbs crossing the body; "
                         "layered templates from the true occlusions, plus physlab as a single "
                         "sheet)")
+    p.add_argument("--source", choices=("procedural", "animated_drawings"),
+                   default="procedural",
+                   help="--occluded: the procedural occlusion benchmark (default), or the "
+                        "AnimatedDrawings characters posed by BVH motions whose hand crosses "
+                        "the body (AD_OCCLUDED_SHOTS; occlusions suggested, not annotated; "
+                        "default --size 256; needs ../shared/data, skipped without it)")
     p.add_argument("--texture-quality", choices=("inpainted", "none"), default="inpainted",
                    help="benchmark: the blending costs' texture quality q (Sec. 5.2) from the "
                         "visible inpainted pixels of the layered templates (default), or q ≡ 1 "
@@ -960,6 +1353,30 @@ def _main_folder(args):
     print("wrote " + ", ".join(str(f) for f in r["files"]))
 
 
+def _main_occluded_drawings(args, n_frames):
+    """``--occluded --source animated_drawings``: print and write the real-drawing tables."""
+    from ..datasets import ANIMATED_DRAWINGS_ATTRIBUTION
+
+    shots = AD_OCCLUDED_SHOTS
+    if args.pairs is not None:
+        shots = dict(list(shots.items())[:args.pairs])
+    r = evaluate_occluded_drawings(shots, size=256 if args.size is None else args.size,
+                                   n_frames=n_frames, out=args.out,
+                                   progress=not args.no_progress,
+                                   texture_quality=args.texture_quality)
+    if r["skipped"]:
+        print(f"skipped AnimatedDrawings occlusions: {r['skipped']}")
+        return
+    print(r["table"])
+    print()
+    print(r["physlab"])
+    print(f"\nCD = Chamfer distance between dark pixels ×1e5. Occlusions suggested by "
+          f"suggest_occlusions (no T-junctions), joint depths from the BVH. "
+          f"{ANIMATED_DRAWINGS_ATTRIBUTION}")
+    if r["files"]:
+        print("wrote " + ", ".join(str(f) for f in r["files"]))
+
+
 def _main_interpolation(args):
     """``--interpolation``: print (and with ``--out`` write) the interpolation table."""
     import json
@@ -996,8 +1413,12 @@ def main(argv=None):
     if args.interpolation:
         return _main_interpolation(args)
     n_frames = DEFAULT_FRAMES if args.frames is None else args.frames
+    if args.source != "procedural" and not args.occluded:
+        raise ValueError(f"--source {args.source} is for --occluded; add --occluded")
     if isinstance(args.pairs, Path):
         _main_folder(args)
+    elif args.occluded and args.source == "animated_drawings":
+        _main_occluded_drawings(args, n_frames)
     elif not args.skip_benchmark:
         from .characters import inbetween_benchmark, occlusion_benchmark
 

@@ -94,6 +94,7 @@ __all__ = [
     "MIN_PROJECTED_FRACTION",
     "ROKOKO_MAPPING",
     "KeyframePoses",
+    "bvh_joint_depths",
     "bvh_to_skeletons",
     "default_mapping",
     "keyframe_poses",
@@ -577,3 +578,66 @@ def keyframe_poses(character, motion, f0, f1, n_inbetweens=9, mapping=None, view
     sks = bvh_to_skeletons(motion, character, mapping=mapping, frames=frames, view=view,
                            **kwargs)
     return KeyframePoses(sks[0], sks[-1], sks[1:-1], frames)
+
+
+def bvh_joint_depths(motion, skeleton, mapping=None, frames=None, view="front", *,
+                     reference_frame=0, follow_turns=True, up=None):
+    """Depth of every drawing joint along the camera axis of :func:`bvh_to_skeletons`.
+
+    The orthographic projection drops the BVH's third axis; this keeps it, so that a limb that
+    swings in front of or behind the body has a depth order (``Skeleton.depth``, smaller =
+    nearer the viewer; Brodt & Bessmeltsev 2024 Sec. 4 ask for the depths of the joints near
+    each occlusion region). The camera is the one of :func:`bvh_to_skeletons`:
+    ``view="front"`` looks at the actor's front (depth = ``-P · forward``), ``view="side"`` at
+    its left side (depth = ``P · right``), facing followed per frame with ``follow_turns``.
+
+    A mapped drawing joint takes the depth of its distal BVH joint; an unmapped one the
+    proximal BVH joint of a mapped child (a shoulder that of ``XArm``, a hip that of
+    ``XUpLeg``, the drawing's hip that of ``Hips``), else its parent's depth; the root that of
+    the BVH root. Depths are relative to the BVH root in every frame, in BVH file units.
+
+    Parameters
+    ----------
+    motion, skeleton, mapping, frames, reference_frame, follow_turns, up : as
+        :func:`bvh_to_skeletons`.
+    view : "front" or "side".
+
+    Returns
+    -------
+    (F, J) float64 depths, one row per frame, columns in ``skeleton``'s joint order.
+
+    Raises
+    ------
+    ValueError for another view; the errors of :func:`bvh_to_skeletons` otherwise.
+    """
+    if not isinstance(view, str) or view not in _VIEWS:
+        raise ValueError(f"view must be one of {_VIEWS} for depths, got {view!r}")
+    motion = load_motion(motion)
+    sk = load_character(skeleton)
+    if mapping is None:
+        mapping = default_mapping(motion, sk)
+    _, fr = _retarget_xy(motion, sk, mapping, frames, view, "absolute", reference_frame,
+                         False, follow_turns, up)            # checks frames and the mapping
+    joints, pairs = _check_mapping(mapping, sk, motion)
+    P_all = motion.joint_positions()                          # (T, Jb, 3)
+    ref = int(reference_frame)
+    u = _up_axis(up, P_all[ref], sk, joints, pairs)
+    r_all = _right_vectors(P_all if follow_turns else P_all[ref:ref + 1], sk, joints, pairs, u)
+    if not follow_turns:
+        r_all = np.repeat(r_all, len(P_all), axis=0)
+    P = _frame_positions(P_all, fr)                           # (F, Jb, 3)
+    r = _frame_positions(r_all[:, None], fr)[:, 0]            # (F, 3)
+    r /= np.linalg.norm(r, axis=1, keepdims=True)
+    axis = -np.cross(u, r) if view == "front" else r          # (F, 3) away from the camera
+    broot = int(np.flatnonzero(motion.parents < 0)[0])
+    d_bvh = np.einsum("fjk,fk->fj", P - P[:, broot:broot + 1], axis)   # (F, Jb)
+    src = {int(j): int(b) for j, (_, b) in zip(joints, pairs)}
+    for j, (a, _) in zip(joints, pairs):                      # unmapped parent of a mapped joint
+        p = int(sk.parents[j])
+        if p >= 0 and p not in src:
+            src[p] = int(a)
+    out = np.zeros((len(fr), len(sk)))
+    for j in sk.order:
+        p = sk.parents[j]
+        out[:, j] = d_bvh[:, src[j]] if j in src else (out[:, p] if p >= 0 else d_bvh[:, broot])
+    return out

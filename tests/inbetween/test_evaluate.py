@@ -243,3 +243,97 @@ def test_cli_interpolation_table(tmp_path, capsys):
     rows = json.loads((tmp_path / "interpolation_rows.json").read_text())
     assert rows["psnr"] == [] and {r["method"] for r in rows["errors"]} == \
         set(evaluate.INTERPOLATION_METHODS)
+
+
+# ------------------------------------------------- real drawings with a limb over the body
+def test_limb_body_overlaps_tiny_case():
+    """A hand swung across the trunk overlaps it; the same bones apart in the rest pose
+    count, bones already touching at rest do not; the deepest overlap is 2r − distance."""
+    from physlab.inbetween import Skeleton
+
+    names = ["root", "hip", "torso", "left_shoulder", "left_elbow", "left_hand"]
+    parents = np.array([-1, 0, 1, 2, 3, 4])
+    rest = Skeleton(names, parents, np.array([[50, 80], [50, 78], [50, 40], [60, 40],
+                                              [80, 40], [100, 40]], float))
+    # the forearm folded back across the torso bone, crossing it (distance 0)
+    posed = rest.with_xy(np.array([[50, 80], [50, 78], [50, 40], [60, 40], [60, 60],
+                                   [40, 60]], float))
+    ov = evaluate.limb_body_overlaps(posed, rest, radius=3.0)
+    assert ov[0] == ("left_hand", "torso", pytest.approx(6.0))
+    assert evaluate.limb_body_overlaps(rest, rest, radius=3.0) == []
+    assert evaluate.limb_body_overlaps(posed, posed, radius=3.0) == []   # already in the drawing
+
+
+@pytest.mark.parametrize("call, match", [
+    (lambda: evaluate.scan_occluded_shots(characters=["char9"]), "characters must be"),
+    (lambda: evaluate.scan_occluded_shots(motions=[]), "motions is empty"),
+    (lambda: evaluate.scan_occluded_shots(size=32), "size must be"),
+    (lambda: evaluate.scan_occluded_shots(span=0), "span must be"),
+    (lambda: evaluate.OccludedDrawingPair("x", "char9", "dab", 0, 1), "character must be"),
+    (lambda: evaluate.OccludedDrawingPair("x", "char1", "salsa", 0, 1), "motion must be"),
+    (lambda: evaluate.OccludedDrawingPair("x", "char1", "dab", 0, 1, size=10), "size must be"),
+    (lambda: evaluate.occluded_drawing_pairs({}), "shots must be"),
+])
+def test_occluded_drawings_bad_arguments(call, match):
+    with pytest.raises(ValueError, match=match):
+        call()
+
+
+def test_limb_body_overlaps_bad_arguments():
+    from physlab.inbetween import character_skeleton
+
+    sk = character_skeleton(128)
+    with pytest.raises(ValueError, match="radius must be"):
+        evaluate.limb_body_overlaps(sk, sk, radius=-1.0)
+    with pytest.raises(TypeError, match="skeleton and rest must be"):
+        evaluate.limb_body_overlaps(sk, None, 3.0)
+
+
+def test_occluded_drawings_skip_without_data(monkeypatch, capsys):
+    from physlab import datasets
+
+    monkeypatch.setattr(datasets, "external_data_dir", lambda: None)
+    r = evaluate.evaluate_occluded_drawings()
+    assert r["skipped"] and "external data" in r["skipped"] and r["rows"] == []
+    assert evaluate.main(["--occluded", "--source", "animated_drawings", "--no-progress"]) == 0
+    assert "skipped AnimatedDrawings occlusions" in capsys.readouterr().out
+
+
+def test_source_needs_occluded():
+    with pytest.raises(ValueError, match="--source animated_drawings is for --occluded"):
+        evaluate.main(["--source", "animated_drawings", "--skip-benchmark"])
+
+
+def test_scan_finds_shots_whose_key_overlaps(real_data):
+    found = evaluate.scan_occluded_shots(["char2"], ["dab"], size=128)
+    assert found, "the dab motion folds char2's arm across its chest"
+    for r in found:
+        assert r["overlap_px"] > 0 and r["overlaps"][0][2] == r["overlap_px"]
+    # the shots of the table really have a limb over the body at exactly one key
+    for name, shot in evaluate.AD_OCCLUDED_SHOTS.items():
+        p = evaluate.OccludedDrawingPair(name, *shot, size=128)
+        ov = [evaluate.limb_body_overlaps(s, p.rest, p.radius) for s in (p.skeleton0,
+                                                                          p.skeleton1)]
+        assert sum(bool(o) for o in ov) == 1, name
+        assert max(o[0][2] for o in ov if o) > 0
+        assert p.skeleton0.depth is not None
+
+
+def test_occluded_drawing_route_small(real_data, tmp_path):
+    import time
+
+    shot = {"char4_dab": evaluate.AD_OCCLUDED_SHOTS["char4_dab"]}
+    tic = time.perf_counter()
+    r = evaluate.evaluate_occluded_drawings(shot, size=96, n_frames=3, out=tmp_path,
+                                            progress=False, max_iter=300)
+    assert time.perf_counter() - tic < 30
+    methods = {row["method"] for row in r["rows"]}
+    assert methods == set(evaluate.METHODS) | {evaluate.SINGLE_SHEET}
+    for row in r["rows"]:
+        for m in evaluate.METRICS:
+            assert np.isfinite(row[f"{m}_mid"]) and np.isfinite(row[f"{m}_all"])
+        if row["method"].startswith("physlab"):
+            assert np.isfinite(row["handle_error_px"]) and row["flipped"] >= 0
+    assert r["rows"][0]["regions0"] + r["rows"][0]["regions1"] >= 1  # suggested regions
+    assert "layered" in r["physlab"] and "one sheet" in r["physlab"]
+    assert (tmp_path / "pairs" / "char4_dab.png").is_file() and (tmp_path / "table.md").is_file()

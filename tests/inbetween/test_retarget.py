@@ -16,6 +16,7 @@ from physlab.inbetween.retarget import (
     FAIR1_MAPPING,
     ROKOKO_MAPPING,
     KeyframePoses,
+    bvh_joint_depths,
     bvh_to_skeletons,
     default_mapping,
     keyframe_poses,
@@ -345,3 +346,37 @@ def test_keyframe_poses(real_data, motions):
     # named motions start where AnimatedDrawings starts them
     kp = keyframe_poses("char2", "jumping", 200, 260, n_inbetweens=0)
     assert kp.inbetweens == [] and len(kp.frames) == 2
+
+
+# ----------------------------------------------------------------------------- joint depths
+def test_tiny_depths_hand_swung_forward_is_nearer():
+    """The left arm swung forward (Yrotation −90: the hand at +z, the actor's front) puts the
+    left hand 1 unit nearer the front camera (depth −1), every other joint at the root's
+    depth 0; the side camera (at the actor's left) sees the left arm 1 unit nearer than the
+    root and the right hand 2 units farther."""
+    m = tiny_motion([{}, {"LeftArm": {"Yrotation": -90.0}}])
+    sk = tiny_drawing()
+    d = bvh_joint_depths(m, sk, TINY_MAPPING)
+    assert d.shape == (2, len(sk))
+    np.testing.assert_allclose(d[0], 0.0, atol=1e-12)                # T-pose: a flat actor
+    want = np.zeros(len(sk))
+    want[sk.index("left_hand")] = -1.0
+    np.testing.assert_allclose(d[1], want, atol=1e-9)
+    side = bvh_joint_depths(m, sk, TINY_MAPPING, view="side")[1]
+    assert side[sk.index("left_hand")] == pytest.approx(-1.0)
+    assert side[sk.index("right_hand")] == pytest.approx(2.0)
+
+
+def test_tiny_depths_invariant_to_turning():
+    pose = {"LeftArm": {"Yrotation": -60.0}, "RightArm": {"Zrotation": -30.0}}
+    sk = tiny_drawing()
+    base = bvh_joint_depths(tiny_motion([{}, pose]), sk, TINY_MAPPING)[1]
+    turned = bvh_joint_depths(tiny_motion([{}, {**pose, "Hips": {"Yrotation": 70.0}}]), sk,
+                              TINY_MAPPING)[1]
+    np.testing.assert_allclose(turned, base, atol=1e-9)
+
+
+def test_depths_bad_view_names_the_argument():
+    m = tiny_motion([{}])
+    with pytest.raises(ValueError, match="view must be one of"):
+        bvh_joint_depths(m, tiny_drawing(), TINY_MAPPING, view="auto")
