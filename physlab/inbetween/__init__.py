@@ -17,7 +17,7 @@ from .characters import (ADJACENT_PARTS, CHARACTER_JOINTS, CHARACTER_PARTS, CHAR
 from .deform import (SymmetricDirichletDeformer, deform, symmetric_dirichlet_energy,
                      symmetric_dirichlet_gradient)
 from .occlusion import (LayeredTemplate, Occlusion, build_layered_template, load_occlusions,
-                        save_occlusions, suggest_occlusions)
+                        save_occlusions, suggest_occlusions, suggest_t_junctions)
 from .pipeline import InbetweenResult, inbetween
 from .skeleton import INTERPOLATION_METHODS, Skeleton, check_compatible, interpolate
 from .template import Template, build_template
@@ -30,4 +30,4 @@ __all__ = ["Skeleton", "check_compatible", "interpolate", "INTERPOLATION_METHODS
            "character_part_labels", "part_overlaps", "InbetweenPair", "inbetween_benchmark",
            "occlusion_benchmark", "character_occlusions", "paint_order", "Occlusion",
            "LayeredTemplate", "build_layered_template", "suggest_occlusions", "save_occlusions",
-           "load_occlusions"]
+           "load_occlusions", "suggest_t_junctions"]

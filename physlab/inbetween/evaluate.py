@@ -31,8 +31,10 @@ cross-dissolve.
 Occlusions on real drawings (``--occluded --source animated_drawings``,
 :func:`evaluate_occluded_drawings`): AnimatedDrawings characters posed by BVH motions whose hand
 crosses the body (:data:`AD_OCCLUDED_SHOTS`, found by :func:`scan_occluded_shots`), occlusion
-regions suggested by :func:`~physlab.inbetween.occlusion.suggest_occlusions` and joint depths
-from the BVH; physlab layered vs one sheet vs the baselines against the posed drawing.
+regions suggested by :func:`~physlab.inbetween.occlusion.suggest_occlusions`, their T-junctions
+by :func:`~physlab.inbetween.occlusion.suggest_t_junctions` (``--no-t-junctions``: none) and
+joint depths from the BVH; physlab layered vs one sheet vs the baselines against the posed
+drawing.
 
 One's own keyframe pair — two keys, their skeletons, and in-betweens drawn by hand where
 there are some — is scored the same way by :func:`evaluate_folder` (``physlab evaluate
@@ -688,7 +690,9 @@ class OccludedDrawingPair:
     The occlusion annotation is made without a human (:meth:`occlusions`):
     :func:`~physlab.inbetween.occlusion.suggest_occlusions` on each key, kept where its bone
     pair is one of the key's :func:`limb_body_overlaps` (a limb on the body that the drawing
-    does not have), overlapping suggestions merged; no T-junctions (the suggestion has none);
+    does not have), overlapping suggestions merged; each merged region gets the T-junctions of
+    :func:`~physlab.inbetween.occlusion.suggest_t_junctions` (its bones' capsules, the nearer
+    bones by BVH depth as the occluder; ``t_junctions=False``: none, as before 2026-11-26);
     joint depths from the BVH.
 
     Parameters
@@ -696,6 +700,7 @@ class OccludedDrawingPair:
     name : str. character : "char1" … "char6". motion : a name of
         :data:`~physlab.inbetween.retarget.ANIMATED_DRAWINGS_MOTIONS`.
     t0, t1 : key times (seconds). size : int ≥ 64, the image's larger side (px).
+    t_junctions : bool, suggest T-junctions for the regions (default True).
 
     Raises
     ------
@@ -705,7 +710,7 @@ class OccludedDrawingPair:
 
     kind = "occluded"
 
-    def __init__(self, name, character, motion, t0, t1, size=256):
+    def __init__(self, name, character, motion, t0, t1, size=256, t_junctions=True):
         from ..datasets import ANIMATED_DRAWINGS
         from .retarget import (ANIMATED_DRAWINGS_MOTIONS, ANIMATED_DRAWINGS_START_FRAMES,
                                load_motion)
@@ -728,6 +733,9 @@ class OccludedDrawingPair:
         self.t0, self.t1, self.size = float(t0), float(t1), int(size)
         self.style = f"{character} · {motion} {t0:g}–{t1:g} s"
         self.image, self.mask, self.rest = _scaled_drawing(character, self.size)
+        if not isinstance(t_junctions, (bool, np.bool_)):
+            raise ValueError(f"t_junctions must be True or False, got {t_junctions!r}")
+        self.t_junctions = bool(t_junctions)
         self.radius = CAPSULE_RADIUS * float(np.ptp(self.rest.xy, axis=0).max())
         self.skeleton0, self.skeleton1 = self.skeleton_at([0.0, 1.0])
         self._template, self._frames = None, {}
@@ -779,7 +787,7 @@ class OccludedDrawingPair:
         :class:`~physlab.inbetween.occlusion.Occlusion` (class docstring)."""
         from scipy import ndimage
 
-        from .occlusion import Occlusion, suggest_occlusions
+        from .occlusion import Occlusion, suggest_occlusions, suggest_t_junctions
 
         out = []
         for key, sk in zip(self.keyframes(), (self.skeleton0, self.skeleton1)):
@@ -799,22 +807,27 @@ class OccludedDrawingPair:
                 m = comps == c
                 names = [o.label for o in sug if (o.mask & m).any()]
                 if m.sum() >= 16:
-                    regs.append(Occlusion(m, (), label="+".join(names)))
+                    tj = ()
+                    if self.t_junctions:
+                        bones = [j for n in names for j in n.split("/")]
+                        tj = suggest_t_junctions(m, sk, bones, self.radius, key[..., 3] > 0.5)
+                    regs.append(Occlusion(m, tj, label="+".join(names)))
             out.append(regs)
         return tuple(out)
 
 
-def occluded_drawing_pairs(shots=None, size=256):
+def occluded_drawing_pairs(shots=None, size=256, t_junctions=True):
     """:class:`OccludedDrawingPair` of every shot (default :data:`AD_OCCLUDED_SHOTS`)."""
     shots = AD_OCCLUDED_SHOTS if shots is None else shots
     if not isinstance(shots, dict) or not shots:
         raise ValueError("shots must be a non-empty dict name -> (character, motion, t0, t1), "
                          f"got {shots!r}")
-    return [OccludedDrawingPair(name, *shot, size=size) for name, shot in shots.items()]
+    return [OccludedDrawingPair(name, *shot, size=size, t_junctions=t_junctions)
+            for name, shot in shots.items()]
 
 
 def evaluate_occluded_drawings(shots=None, size=256, n_frames=11, out=None, progress=True,
-                               **options):
+                               t_junctions=True, **options):
     """Occlusion evaluation on real drawings (issue 15): every :func:`occluded_drawing_pairs`
     pair through :func:`evaluate_pairs` — physlab with layered templates from the suggested
     occlusions, physlab as one sheet, cross-dissolve, flow — scored against the posed drawing.
@@ -825,7 +838,9 @@ def evaluate_occluded_drawings(shots=None, size=256, n_frames=11, out=None, prog
     size : int ≥ 64, image size (px). n_frames : int ≥ 3, frames per pair, keys included.
     out : folder for ``table.md``, ``rows.json`` and a :func:`comparison_sheet` per pair
         (``pairs/<name>.png``), or None.
-    progress : bool. options : passed to :func:`~physlab.inbetween.pipeline.inbetween`.
+    progress : bool. t_junctions : bool, suggested T-junctions on the suggested regions
+    (:class:`OccludedDrawingPair`). options : passed to
+    :func:`~physlab.inbetween.pipeline.inbetween`.
 
     Returns
     -------
@@ -842,7 +857,7 @@ def evaluate_occluded_drawings(shots=None, size=256, n_frames=11, out=None, prog
                            "provide ../shared/data with animated_drawings/)"}
     if isinstance(n_frames, bool) or not isinstance(n_frames, (int, np.integer)) or n_frames < 3:
         raise ValueError(f"n_frames must be an int ≥ 3 (keys included), got {n_frames!r}")
-    pairs = occluded_drawing_pairs(shots, size)
+    pairs = occluded_drawing_pairs(shots, size, t_junctions)
     sheets = None if out is None else Path(out) / "pairs"
     rows = evaluate_pairs(pairs, n_frames=n_frames, progress=progress, sheets=sheets, **options)
     regions = {p.name: [len(o) for o in p.occlusions()] for p in pairs}
@@ -1315,6 +1330,9 @@ def _parser():
                         "AnimatedDrawings characters posed by BVH motions whose hand crosses "
                         "the body (AD_OCCLUDED_SHOTS; occlusions suggested, not annotated; "
                         "default --size 256; needs ../shared/data, skipped without it)")
+    p.add_argument("--no-t-junctions", action="store_true",
+                   help="--occluded --source animated_drawings: suggested regions without "
+                        "suggested T-junctions (the route before 2026-11-26)")
     p.add_argument("--texture-quality", choices=("inpainted", "none"), default="inpainted",
                    help="benchmark: the blending costs' texture quality q (Sec. 5.2) from the "
                         "visible inpainted pixels of the layered templates (default), or q ≡ 1 "
@@ -1363,7 +1381,8 @@ def _main_occluded_drawings(args, n_frames):
     r = evaluate_occluded_drawings(shots, size=256 if args.size is None else args.size,
                                    n_frames=n_frames, out=args.out,
                                    progress=not args.no_progress,
-                                   texture_quality=args.texture_quality)
+                                   texture_quality=args.texture_quality,
+                                   t_junctions=not args.no_t_junctions)
     if r["skipped"]:
         print(f"skipped AnimatedDrawings occlusions: {r['skipped']}")
         return
@@ -1371,7 +1390,9 @@ def _main_occluded_drawings(args, n_frames):
     print()
     print(r["physlab"])
     print(f"\nCD = Chamfer distance between dark pixels ×1e5. Occlusions suggested by "
-          f"suggest_occlusions (no T-junctions), joint depths from the BVH. "
+          f"suggest_occlusions, T-junctions "
+          f"{'none' if args.no_t_junctions else 'by suggest_t_junctions'}, joint depths from "
+          f"the BVH. "
           f"{ANIMATED_DRAWINGS_ATTRIBUTION}")
     if r["files"]:
         print("wrote " + ", ".join(str(f) for f in r["files"]))

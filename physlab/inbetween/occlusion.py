@@ -12,7 +12,9 @@ Inputs per keyframe (Sec. 4)
   the points where one part's outline ends against the occluder's. The paper predicts masks
   with a DINOv2 U-Net (weights unavailable here); :func:`suggest_occlusions` is the honest
   CPU substitute — the 2D overlap of non-adjacent limbs' capsules, a suggestion the user
-  accepts or edits (``predictor=`` is the seam for a learned one).
+  accepts or edits (``predictor=`` is the seam for a learned one); with ``t_junctions=True``
+  its regions carry :func:`suggest_t_junctions` (where the occluder's capsule outline meets the
+  other outlines on the region's boundary), a CPU substitute for the user's clicks.
 * Joint depths near the regions (:attr:`Skeleton.depth`, smaller = nearer): they decide
   which layer is in front after the topology is found (Sec. 5.1).
 
@@ -71,8 +73,8 @@ from .template import Template, as_rgba_float, classical_foreground_mask
 
 __all__ = ["Occlusion", "OcclusionRegion", "LayeredTemplate", "valid_assignments",
            "count_valid_assignments", "refine_through_t_junctions", "switch_points", "incise",
-           "build_layered_template", "suggest_occlusions", "save_occlusions", "load_occlusions",
-           "limb_overlaps"]
+           "build_layered_template", "suggest_occlusions", "suggest_t_junctions",
+           "save_occlusions", "load_occlusions", "limb_overlaps"]
 
 #: A T-junction may lie at most this far (px) from its region's outline.
 T_JUNCTION_TOLERANCE = 6.0
@@ -1105,32 +1107,167 @@ def _segment_distance(p0, p1, q0, q1):
     return float(min(d_p.min(), d_q.min()))
 
 
-def suggest_occlusions(image, skeleton, radius=None, mask=None, predictor=None):
+def _capsule_distance(P, a, b):
+    """Distance of points ``P`` (..., 2) to the segment ``a → b``."""
+    ab = np.asarray(b, float) - np.asarray(a, float)
+    t = np.clip(((P - a) @ ab) / max(float(ab @ ab), 1e-12), 0.0, 1.0)
+    return np.linalg.norm(P - (a + t[..., None] * ab), axis=-1)
+
+
+def _bone_of(skeleton, joint, where):
+    try:
+        j = skeleton.index(joint)
+    except (KeyError, ValueError, IndexError):
+        raise ValueError(f"{where}: unknown joint {joint!r} (bones are named by their end "
+                         f"joint, one of {list(skeleton.names)})") from None
+    if skeleton.parents[j] < 0:
+        raise ValueError(f"{where}: {joint!r} is the root; it ends no bone")
+    return skeleton.xy[[skeleton.parents[j], j]]
+
+
+def _bone_depth(skeleton, joint):
+    j = skeleton.index(joint)
+    return float(np.mean(skeleton.depth[[skeleton.parents[j], j]]))
+
+
+def _front_bones(skeleton, bones, front):
+    """The occluder's bones among ``bones`` (see :func:`suggest_t_junctions`)."""
+    if front is None:
+        if skeleton.depth is not None:
+            d = {j: _bone_depth(skeleton, j) for j in bones}
+            mid = np.mean(list(d.values()))
+            front = [j for j in bones if d[j] < mid - 1e-9]
+        if not front:
+            def level(j):
+                n, i = 0, skeleton.index(j)
+                while skeleton.parents[i] >= 0:
+                    i, n = skeleton.parents[i], n + 1
+                return n
+            front = [max(bones, key=level)]
+    front = list(dict.fromkeys(front))
+    if not front or not set(front) < set(bones):
+        raise ValueError(f"front must be a non-empty proper subset of bones {bones}, got "
+                         f"{front}")
+    return front
+
+
+def _check_region_args(region, mask, radius, bones, skeleton):
+    R = np.asarray(region)
+    fg = np.asarray(mask)
+    if R.ndim != 2 or not R.any():
+        raise ValueError(f"region must be a non-empty (H, W) bool mask, got shape {R.shape}")
+    if fg.shape != R.shape:
+        raise ValueError(f"mask must have the region's shape {R.shape}, got {fg.shape}")
+    if isinstance(radius, bool) or not np.isfinite(radius) or radius <= 0:
+        raise ValueError(f"radius must be a positive number of px, got {radius!r}")
+    if isinstance(bones, str):
+        raise ValueError(f"bones must be a sequence of joint names, got the string {bones!r}")
+    bones = list(dict.fromkeys(bones))
+    if len(bones) < 2:
+        raise ValueError(f"bones must name at least two distinct bones, got {bones}")
+    for j in bones:
+        _bone_of(skeleton, j, "bones")
+    return R.astype(bool), fg.astype(bool), bones
+
+
+def suggest_t_junctions(region, skeleton, bones, radius, mask, front=None, min_run=4):
+    """Suggested T-junctions of one suggested occlusion region — a CPU substitute for the
+    user's clicks (Sec. 4.1), like :func:`suggest_occlusions` is for the mask network.
+
+    Heuristic. A suggested region is the overlap of limb capsules inside the foreground, so
+    every point of its outline is there because one of three things ends: the **occluder's**
+    capsule (the *front* bones; outside it the occluded part is visible — its layer continues,
+    the occluder's is cut), the occluded part's capsule, or the foreground silhouette (outside
+    them the occluder continues over the occluded part or over the paper). A T-junction is where
+    the outline switches between the first kind and the others — where the front limb's
+    silhouette meets the other part's outline, in a drawing the place where that outline ends
+    against the occluder (Fig. 7). Each outline point (the region's marching-squares contour) is
+    labelled by the nearest of the three boundaries (|capsule distance − ``radius``| for the
+    unions of front and back capsules, the Euclidean distance to the foreground's edge), runs
+    shorter than ``min_run`` points are absorbed (:func:`switch_points`, the same rule as the
+    true T-junctions of :func:`~physlab.inbetween.characters.character_occlusions`), and the
+    switch points lie on the region's outline. Their number is even, so the region has the
+    two topologies of an even ``k`` — but now they differ along the outline instead of being
+    "one layer sewn all round". The capsules only approximate the limbs' silhouettes, so the
+    points are as good as ``radius`` matches the limbs' width.
+
+    Parameters
+    ----------
+    region : (H, W) bool, the region's mask (non-empty).
+    skeleton : Skeleton, the key's pose; ``depth`` (if given) picks the front bones.
+    bones : sequence of joint names, each naming the bone it ends (>= 2 distinct bones).
+    radius : float > 0, capsule radius (px), as used for the suggestion.
+    mask : (H, W) bool, the key's foreground.
+    front : subset of ``bones``: the occluder's bones; default the bones nearer than the mean
+        depth of ``bones`` (by :attr:`Skeleton.depth`), without depths (or all at one depth)
+        the one bone farthest from the root in the hierarchy (a hand on the chest).
+    min_run : int ≥ 1, shortest run (contour points ≈ px) that counts.
+
+    Returns
+    -------
+    (k, 2) float pixel points ``(x, y)`` on the region's outline, ``k`` even (possibly 0).
+
+    Raises
+    ------
+    ValueError for an empty or mis-shaped region or mask, unknown joints, fewer than two
+    bones, a bad radius, ``front`` not a proper non-empty subset of ``bones``.
+    """
+    from scipy import ndimage
+    from skimage.measure import find_contours
+
+    R, fg, bones = _check_region_args(region, mask, radius, bones, skeleton)
+    seg = {j: _bone_of(skeleton, j, "bones") for j in bones}
+    front = _front_bones(skeleton, bones, front)
+    back = [j for j in bones if j not in front]
+    if isinstance(min_run, bool) or not isinstance(min_run, (int, np.integer)) or min_run < 1:
+        raise ValueError(f"min_run must be an int >= 1, got {min_run!r}")
+
+    contour = max(find_contours(np.pad(R, 1).astype(float), 0.5), key=len)
+    yx = contour[:-1] - 1.0
+    xy = yx[:, ::-1]
+    d_front = np.abs(np.min([_capsule_distance(xy, *seg[j]) for j in front], axis=0) - radius)
+    d_back = np.abs(np.min([_capsule_distance(xy, *seg[j]) for j in back], axis=0) - radius)
+    # distance to the silhouette: inside, to the nearest background pixel centre minus ½ px
+    edt = ndimage.distance_transform_edt(fg) - 0.5
+    ij = np.clip(np.round(yx).astype(int), 0, np.array(R.shape) - 1)
+    d_fg = np.maximum(edt[ij[:, 0], ij[:, 1]], 0.0)
+    on_front = d_front < np.minimum(d_back, d_fg)
+    return switch_points(xy, on_front, int(min_run))
+
+
+def suggest_occlusions(image, skeleton, radius=None, mask=None, predictor=None,
+                       t_junctions=False):
     """Suggested occlusion regions of a keyframe: the CPU substitute for the paper's mask
     network (Sec. 4.1), for the user to accept or edit.
 
     For every pair of non-adjacent bones whose capsules (radius ``radius`` px) overlap in 2D,
-    the overlap of the two capsules inside the foreground is one region; without joint depths
-    nothing says which is in front (the template finds the topology, Sec. 4.3; depths pick the
-    front layer). T-junctions are left to the user (the paper asks for them too). ``predictor``
+    the overlap of the two capsules inside the foreground is one region; joint depths (if the
+    skeleton has them) pick the occluder, otherwise the template finds the topology (Sec. 4.3)
+    and depths the front layer. With ``t_junctions=False`` (the default) the regions carry no
+    T-junctions (the paper asks the user for them); with ``t_junctions=True`` each carries
+    :func:`suggest_t_junctions` — where the occluder's capsule outline meets the other outlines
+    on the region's boundary, also a CPU heuristic. ``predictor``
     (``(image, skeleton) -> list of Occlusion``) replaces the heuristic with a learned one.
 
-    Returns list of :class:`Occlusion`.
+    Returns list of :class:`Occlusion` (labels ``"<joint a>/<joint b>"``, bones named by their
+    end joints).
     """
     if predictor is not None:
         return list(predictor(image, skeleton))
+    if not isinstance(t_junctions, (bool, np.bool_)):
+        raise ValueError(f"t_junctions must be True or False, got {t_junctions!r}")
     img = as_rgba_float(image)
     H, W = img.shape[:2]
     fg = classical_foreground_mask(img) if mask is None else np.asarray(mask, bool)
+    if fg.shape != (H, W):
+        raise ValueError(f"mask must have the image's shape {(H, W)}, got {fg.shape}")
     if radius is None:
         radius = 0.06 * max(np.ptp(skeleton.xy[:, 1]), np.ptp(skeleton.xy[:, 0]), 1.0)
     yy, xx = np.mgrid[0:H, 0:W].astype(float)
     P = np.stack([xx, yy], axis=-1)
 
     def capsule(a, b):
-        ab = b - a
-        t = np.clip(((P - a) @ ab) / max(ab @ ab, 1e-12), 0, 1)
-        return np.linalg.norm(P - (a + t[..., None] * ab), axis=-1) < radius
+        return _capsule_distance(P, a, b) < radius
 
     out = []
     for ja, jb in limb_overlaps(skeleton, radius):
@@ -1139,5 +1276,6 @@ def suggest_occlusions(image, skeleton, radius=None, mask=None, predictor=None):
         xb = skeleton.xy[[skeleton.parents[b], b]]
         m = capsule(*xa) & capsule(*xb) & fg
         if m.sum() >= 16:
-            out.append(Occlusion(m, (), label=f"{ja}/{jb}"))
+            tj = suggest_t_junctions(m, skeleton, (ja, jb), radius, fg) if t_junctions else ()
+            out.append(Occlusion(m, tj, label=f"{ja}/{jb}"))
     return out

@@ -273,6 +273,8 @@ def test_limb_body_overlaps_tiny_case():
     (lambda: evaluate.OccludedDrawingPair("x", "char1", "salsa", 0, 1), "motion must be"),
     (lambda: evaluate.OccludedDrawingPair("x", "char1", "dab", 0, 1, size=10), "size must be"),
     (lambda: evaluate.occluded_drawing_pairs({}), "shots must be"),
+    (lambda: evaluate.OccludedDrawingPair("x", "char1", "dab", 0, 1, t_junctions="y"),
+     "t_junctions must be True or False"),
 ])
 def test_occluded_drawings_bad_arguments(call, match):
     with pytest.raises(ValueError, match=match):
@@ -337,3 +339,23 @@ def test_occluded_drawing_route_small(real_data, tmp_path):
     assert r["rows"][0]["regions0"] + r["rows"][0]["regions1"] >= 1  # suggested regions
     assert "layered" in r["physlab"] and "one sheet" in r["physlab"]
     assert (tmp_path / "pairs" / "char4_dab.png").is_file() and (tmp_path / "table.md").is_file()
+
+
+def test_occluded_drawing_regions_carry_suggested_t_junctions(real_data):
+    from physlab.inbetween.occlusion import T_JUNCTION_TOLERANCE
+
+    shot = evaluate.AD_OCCLUDED_SHOTS["char4_dab"]
+    p = evaluate.OccludedDrawingPair("char4_dab", *shot, size=128)
+    regs = [o for key in p.occlusions() for o in key]
+    assert regs
+    for o in regs:
+        tj = o.t_junctions
+        assert len(tj) >= 2 and len(tj) % 2 == 0, o.label
+        # on the region's outline (within the template's tolerance)
+        from scipy import ndimage
+        edge = o.mask & ~ndimage.binary_erosion(o.mask)
+        yx = np.argwhere(edge)
+        d = np.linalg.norm(tj[:, None] - yx[None, :, ::-1], axis=2).min(axis=1)
+        assert d.max() <= T_JUNCTION_TOLERANCE
+    off = evaluate.OccludedDrawingPair("char4_dab", *shot, size=128, t_junctions=False)
+    assert all(len(o.t_junctions) == 0 for key in off.occlusions() for o in key)

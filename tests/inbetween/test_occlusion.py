@@ -228,6 +228,99 @@ def test_suggested_occlusions_cover_the_true_region(fold):
     assert (union & true).sum() > 0.3 * true.sum()
 
 
+
+# Suggested T-junctions (suggest_t_junctions, a CPU heuristic) against the true ones of the
+# benchmark's key 1, on the suggested region that overlaps the true region most. Measured at
+# 192 px (radius default): nearest suggested-to-true distance fold_arm 5.0, arm_behind 5.7,
+# cross_legs 3.0 px; farthest 11.9, 10.1, 8.1 px (the capsules are not the limbs'
+# silhouettes, and the suggested region is not the true one). Tolerances: nearest <= 6 px
+# (= T_JUNCTION_TOLERANCE), every suggested one <= 12.5 px from a true one.
+@pytest.mark.parametrize("name", ["fold_arm", "arm_behind", "cross_legs"])
+def test_suggested_t_junctions_near_the_true_ones(name):
+    from physlab.inbetween.occlusion import T_JUNCTION_TOLERANCE, suggest_t_junctions
+
+    pair = next(p for p in occlusion_benchmark(SIZE) if p.name == name)
+    k1 = pair.keyframes()[1]
+    true = pair.occlusions()[1][0]
+    sug = suggest_occlusions(k1, pair.skeleton1, t_junctions=True)
+    assert [len(o.t_junctions) for o in suggest_occlusions(k1, pair.skeleton1)] == [0] * len(sug)
+    best = max(sug, key=lambda o: (o.mask & true.mask).sum())
+    tj, T = best.t_junctions, true.t_junctions
+    assert len(tj) >= 2 and len(tj) % 2 == len(T) % 2 == 0      # parity of the switching rule
+    d = np.linalg.norm(tj[:, None] - T[None], axis=2).min(axis=1)
+    assert d.min() <= T_JUNCTION_TOLERANCE and d.max() <= 12.5, d
+    # on the region's outline: the template's refinement accepts them (and they stay apart)
+    from skimage.measure import find_contours
+    poly = max(find_contours(np.pad(best.mask, 1).astype(float), 0.5), key=len)[:-1, ::-1] - 1
+    P, idx = refine_through_t_junctions(poly, tj)
+    assert len(set(idx.tolist())) == len(tj)
+    # every region's T-junctions come from the same function on its own bones
+    a, b = best.label.split("/")
+    radius = 0.06 * max(np.ptp(pair.skeleton1.xy[:, 1]), np.ptp(pair.skeleton1.xy[:, 0]))
+    from physlab.inbetween.template import as_rgba_float, classical_foreground_mask
+    fg = classical_foreground_mask(as_rgba_float(k1))
+    again = suggest_t_junctions(best.mask, pair.skeleton1, (a, b), radius, fg)
+    assert np.allclose(again, tj)
+
+
+def test_suggested_t_junctions_front_and_depthless(fold):
+    from physlab.inbetween.occlusion import suggest_t_junctions
+
+    pair, k1 = fold[0], fold[2]
+    sk = pair.skeleton1
+    best = max(suggest_occlusions(k1, sk), key=lambda o: o.mask.sum())  # chest/left_hand
+    fg = k1[..., 3] > 127
+    args = (best.mask, sk, ("chest", "left_hand"), 10.0, fg)
+    by_depth = suggest_t_junctions(*args)                       # the hand is nearer
+    assert np.allclose(by_depth, suggest_t_junctions(*args, front=["left_hand"]))
+    # without depths the bone deepest in the hierarchy (the forearm) is the occluder
+    flat = suggest_t_junctions(best.mask, sk.with_depth(None), ("chest", "left_hand"), 10.0, fg)
+    assert np.allclose(flat, by_depth)
+    assert len(suggest_t_junctions(*args, front=["chest"])) % 2 == 0
+
+
+def test_layered_template_takes_suggested_t_junctions(fold):
+    pair, k0, k1, o0, o1 = fold
+    sug = suggest_occlusions(k1, pair.skeleton1, t_junctions=True)
+    best = max(sug, key=lambda o: o.mask.sum())
+    tpl = build_layered_template(k1, pair.skeleton1, [best],
+                                 target_skeletons=pair.animation(3)[::-1][1:])
+    (reg,) = tpl.regions
+    assert len(reg.t_junctions) == len(best.t_junctions) >= 2
+    assert len(reg.energies) == count_valid_assignments(reg.n_edges, len(reg.t_junctions))
+    sw = {i for i in range(reg.n_edges) if reg.b[i] != reg.b[i - 1]}
+    assert set(reg.t_junctions.tolist()) <= sw      # b switches at every T-junction
+
+
+def test_suggested_t_junctions_bad_input(fold):
+    from physlab.inbetween.occlusion import suggest_t_junctions
+
+    pair, k1 = fold[0], fold[2]
+    sk = pair.skeleton1
+    fg = k1[..., 3] > 127
+    reg = np.zeros_like(fg)
+    reg[80:90, 90:100] = True
+    ok = (reg, sk, ("chest", "left_hand"), 10.0, fg)
+    for args, kw, match in [
+        ((np.zeros_like(fg),) + ok[1:], {}, "region must be a non-empty"),
+        (ok[:4] + (fg[:-1],), {}, "mask must have the region's shape"),
+        (ok[:3] + (0.0, fg), {}, "radius must be a positive"),
+        (ok[:3] + (True, fg), {}, "radius must be a positive"),
+        (ok[:2] + (("chest",),) + ok[3:], {}, "at least two distinct bones"),
+        (ok[:2] + ("chest",) + ok[3:], {}, "sequence of joint names"),
+        (ok[:2] + (("chest", "elbow_of_nobody"),) + ok[3:], {}, "unknown joint"),
+        (ok[:2] + (("pelvis", "left_hand"),) + ok[3:], {}, "is the root"),
+        (ok, {"front": ["chest", "left_hand"]}, "proper subset"),
+        (ok, {"front": ["head"]}, "proper subset"),
+        (ok, {"min_run": 0}, "min_run must be"),
+    ]:
+        with pytest.raises(ValueError, match=match):
+            suggest_t_junctions(*args, **kw)
+    with pytest.raises(ValueError, match="t_junctions must be True or False"):
+        suggest_occlusions(k1, sk, t_junctions="yes")
+    with pytest.raises(ValueError, match="mask must have the image's shape"):
+        suggest_occlusions(k1, sk, mask=fg[:-1])
+
 # ------------------------------------------------------------------ layered template
 @pytest.fixture(scope="module")
 def layered(fold):
