@@ -8,7 +8,7 @@ import pytest
 
 pytest.importorskip("ipycanvas")
 
-from physlab.motion.camera import Camera, to_pixels  # noqa: E402
+from physlab.motion.camera import Camera  # noqa: E402
 from physlab.motion.sketch import Sketch, template_pose  # noqa: E402
 from physlab.viz.sketch_canvas import SketchCanvas  # noqa: E402
 

@@ -36,7 +36,7 @@ from .deform import (MAX_HANDLE_STEP, MAX_ITER, MU, TOL, SymmetricDirichletDefor
 from .frame_interpolation import FlowInterpolator
 from .occlusion import build_layered_template, limb_overlaps
 from .skeleton import Skeleton, check_compatible, interpolate
-from .template import Template, as_rgba_float, build_template
+from .template import as_rgba_float, build_template
 
 __all__ = ["inbetween", "InbetweenResult", "deform_sequence", "substeps", "DEFORMERS", "BLENDS",
            "TEXTURE_QUALITIES"]

@@ -897,7 +897,6 @@ def evaluate_blending(windows=32, transition=TRANSITION, methods=tuple(BLEND_ROW
                          f"window keeps {JERK_MARGIN + 1} context frames a side for the jerk), "
                          f"got {transition!r}")
     ca = (T - l) // 2
-    cb = T - l - ca
     lo, hi = ca - JERK_MARGIN, ca + l + JERK_MARGIN
     text_motion = None
     if evaluator is not None:

@@ -418,7 +418,7 @@ class MotionEditor(CanvasWidget):
         (:func:`~physlab.motion.editing.move_joint`)."""
         if self._keypose is None:
             raise ValueError("the keypose is off: tick 'keypose' to edit it")
-        new = move_joint(self._keypose, joint, _point(point))
+        new = move_joint(self._keypose, joint, point)      # validates the point
         self._push()
         self._keypose = new
         self._show_edit()
@@ -734,13 +734,6 @@ class MotionEditor(CanvasWidget):
                     c = v.to_canvas(q)
                     layer.stroke_style, layer.line_width = COLORS["grab"], 2
                     layer.stroke_circle(c[0], c[1], 9)
-
-
-def _point(p):
-    q = np.asarray(p, dtype=float)
-    if q.shape != (3,) or not np.all(np.isfinite(q)):
-        raise ValueError(f"point must be a finite (3,) position in metres, got {p!r}")
-    return q
 
 
 def _tick(t):

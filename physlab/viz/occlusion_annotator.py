@@ -600,7 +600,7 @@ class OcclusionAnnotator(CanvasWidget):
     def _draw_marks(self):
         from ipycanvas import hold_canvas
 
-        layer, s = self.canvas[2], self.scale
+        layer = self.canvas[2]
         with hold_canvas():
             layer.clear()
             layer.line_cap, layer.line_join = "round", "round"

@@ -56,10 +56,11 @@ from physlab.motion.blend import BLEND_METHODS, TRANSITION
 from physlab.motion.camera import Camera
 from physlab.motion.conditions import KEYPOSE_AT, N_FRAMES
 from physlab.motion.sketch import Sketch
-from physlab.motion.skeleton import JOINT_NAMES, KINEMATIC_CHAINS, PARENTS
+from physlab.motion.skeleton import KINEMATIC_CHAINS
 from physlab.motion.storyboard import Storyboard, StoryboardFrame
 from physlab.viz.canvas_widget import CanvasWidget, png_bytes
-from physlab.viz.storyboard_view import DEFAULT_CAMERA, EXPORT_FORMATS, _fit_text, _font
+from physlab.viz.storyboard_view import (_BONES, DEFAULT_CAMERA, EXPORT_FORMATS, _fit_text,
+                                         _font)
 
 __all__ = ["StoryboardEditor", "frame_thumbnail", "preview_frames", "THUMB_SIZE",
            "PREVIEW_SIZE", "PREVIEW_EVERY", "NEW_ACTION"]
@@ -83,7 +84,6 @@ _COLORS = {"pose": (0, 0, 0), "trajectory": (220, 0, 0), "joints": (31, 119, 180
 #: Warnings the status line does not repeat (library housekeeping, not about the result).
 _QUIET = (DeprecationWarning, PendingDeprecationWarning, FutureWarning, ImportWarning,
           ResourceWarning)
-_BONES = np.stack([PARENTS[1:], np.arange(1, len(JOINT_NAMES))], axis=1)     # (21, 2)
 
 
 # ----------------------------------------------------------------------------- thumbnails

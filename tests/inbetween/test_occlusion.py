@@ -5,11 +5,9 @@ import numpy as np
 import pytest
 
 from physlab.inbetween import (CHARACTER_JOINTS, PAINT_ORDER, Occlusion, Skeleton,
-                               character_occlusions, character_skeleton, inbetween,
+                               character_skeleton, inbetween,
                                inbetween_benchmark, interpolate, load_occlusions,
-                               occlusion_benchmark, paint_order, pose_character,
-                               save_occlusions, suggest_occlusions)
-from physlab.inbetween import metrics
+                               occlusion_benchmark, paint_order, save_occlusions, suggest_occlusions)
 from physlab.inbetween.occlusion import (OcclusionRegion, build_layered_template,
                                          count_valid_assignments, incise, limb_overlaps,
                                          refine_through_t_junctions, switch_points,
