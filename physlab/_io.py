@@ -1,6 +1,7 @@
 """Small file helpers shared by physlab's writers."""
 from __future__ import annotations
 
+import contextlib
 import os
 import re
 import secrets
@@ -29,12 +30,10 @@ def remove_stale_temps(path, suffix=".tmp", older_than=STALE_TEMP_SECONDS):
     for e in entries:
         if not pattern.match(e.name):
             continue
-        try:
+        with contextlib.suppress(OSError):        # gone already, or not ours to remove
             if e.is_file(follow_symlinks=False) and now - e.stat().st_mtime > older_than:
                 os.remove(e.path)
                 n += 1
-        except OSError:
-            pass                                  # gone already, or not ours to remove
     return n
 
 

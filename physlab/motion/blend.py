@@ -99,6 +99,16 @@ def _check_transition(transition, upper=None):
     return int(transition)
 
 
+def _check_gap(transition, method, upper=None):
+    """The transition length of a method that fills a gap (not ``"concat"``): an integer in
+    ``1..upper``; ValueError naming it otherwise."""
+    l = _check_transition(transition, upper)
+    if l < 1:
+        raise ValueError(f"transition must be >= 1 frame for method {method!r} (use "
+                         f"method='concat' for none), got {l}")
+    return l
+
+
 def place_after(prev, nxt, transition=TRANSITION, return_transform=False):
     """Move ``nxt`` so that it continues ``prev`` after a gap of ``transition`` frames.
 
@@ -198,10 +208,7 @@ def blend(clip_a, clip_b, transition=TRANSITION, method="inversion", actions=Non
         j = np.concatenate([a, b])
         return BlendResult(j, slice(len(a), len(a)), slice(len(a), len(a)), method,
                            time.perf_counter() - t0)
-    l = _check_transition(transition)
-    if l < 1:
-        raise ValueError(f"transition must be >= 1 frame for method {method!r} (use "
-                         f"method='concat' for none), got {l}")
+    l = _check_gap(transition, method)
     if method in ("linear", "slerp", "squad"):
         from . import transitions
         fill = getattr(transitions, f"{method}_transition")(a, b, l)

@@ -321,12 +321,10 @@ def animate_storyboard(storyboard, transition=TRANSITION, seed=0, progress=False
         raise ValueError(f"seed must be an integer >= 0, got {seed!r}")
     storyboard.validate()
     if method != "concat" and len(storyboard) > 1:    # before the clips: fail fast
-        from .blend import _check_transition
+        from .blend import _check_gap
 
-        upper = N_FRAMES - 2 if method in ("inversion", "inpaint") else None
-        if _check_transition(transition, upper) < 1:
-            raise ValueError(f"transition must be >= 1 frame for method {method!r} (use "
-                             f"method='concat' for none), got {transition}")
+        _check_gap(transition, method, N_FRAMES - 2 if method in ("inversion", "inpaint")
+                   else None)
     reserved = sorted({"actions", "generator", "seed", "method", "transition"}
                       & set(blend_options or {}))
     if reserved:
