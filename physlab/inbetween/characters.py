@@ -1080,6 +1080,9 @@ _OCCLUSION_BENCHMARK = [
      {"right_upper_arm": -60, "right_forearm": -125}, {"right_elbow": 1.0, "right_hand": 1.0}),
     ("cross_legs", "patterned", 22, {"left_thigh": -5},
      {"left_thigh": 40, "left_shin": -8}, {"left_knee": -1.0, "left_foot": -1.0}),
+    ("cross_step", "patterned", 23, {"left_thigh": 28, "left_shin": 20},
+     {"left_thigh": 45, "left_shin": -45, "right_thigh": -8},
+     {"left_knee": -1.0, "left_foot": -1.0}),
 ]
 
 
@@ -1091,8 +1094,14 @@ def occlusion_benchmark(size=512):
     ============ =================================================================
     fold_arm     left forearm swings from hanging to folded across the belly, in front
     arm_behind   right forearm swings from hanging to folded behind the back
-    cross_legs   left leg crosses in front of the right one
+    cross_legs   left leg crosses in front of the right one (key 0: legs apart)
+    cross_step   left leg in front of the right at both keys: crossed at the feet, then
+                 at the knees
     ============ =================================================================
+
+    In ``cross_legs`` key 0's legs are apart (a hole between them), so its single-sheet
+    template is already correctly layered and the two templates can only differ at key 1;
+    ``cross_step`` occludes at both keys, the paper's title case.
 
     The skeletons carry joint depths (the moving limb nearer or farther than the body), the
     renderer paints in depth order (:func:`paint_order`), and :meth:`InbetweenPair.occlusions`

@@ -232,7 +232,8 @@ def test_suggested_occlusions_cover_the_true_region(fold):
 # 192 px (radius default): nearest suggested-to-true distance fold_arm 5.0, arm_behind 5.7,
 # cross_legs 3.0 px; farthest 11.9, 10.1, 8.1 px (the capsules are not the limbs'
 # silhouettes, and the suggested region is not the true one). Tolerances: nearest <= 6 px
-# (= T_JUNCTION_TOLERANCE), every suggested one <= 12.5 px from a true one.
+# (= T_JUNCTION_TOLERANCE), every suggested one <= 12.5 px from a true one. cross_step (legs
+# crossed at the knees) is not held to it: nearest 2.0 px, farthest 15.6 px.
 @pytest.mark.parametrize("name", ["fold_arm", "arm_behind", "cross_legs"])
 def test_suggested_t_junctions_near_the_true_ones(name):
     from physlab.inbetween.occlusion import T_JUNCTION_TOLERANCE, suggest_t_junctions
@@ -446,8 +447,12 @@ def test_overlapping_limbs_without_occlusions_warn_or_raise(fold):
         inbetween(k0, k1, pair.skeleton0, pair.skeleton1, 3, pair.animation(3), strict=True)
 
 
-@pytest.mark.parametrize("name", ["fold_arm", "arm_behind"])
-def test_layered_inbetween_beats_the_single_sheet(name):
+# measured at 192 px, PSNR gain at t = 0.5 / over all in-betweens: fold_arm +1.6 / +2.2 dB,
+# arm_behind +0.9 / +2.0, cross_step +1.7 / +1.3 (cross_legs: a tie by construction, key 0's
+# legs are apart, see occlusion_benchmark)
+@pytest.mark.parametrize("name, gain_all", [("fold_arm", 1.5), ("arm_behind", 1.5),
+                                            ("cross_step", 0.8)])
+def test_layered_inbetween_beats_the_single_sheet(name, gain_all):
     from physlab.inbetween.evaluate import score_frames
 
     pair = next(p for p in occlusion_benchmark(SIZE) if p.name == name)
@@ -463,8 +468,8 @@ def test_layered_inbetween_beats_the_single_sheet(name):
     assert any("overlap" in str(x.message) for x in w)
     assert any(f for f in one.flags) and not any(f for f in lay.flags)
     s_l, s_s = score_frames(lay.frames, truth), score_frames(one.frames, truth)
-    # measured at 192 px: +2.3 / +0.9 dB at t = 0.5, +2.3 / +2.0 dB over all in-betweens
-    assert s_l["psnr_mid"] > s_s["psnr_mid"] + 0.5 and s_l["psnr_all"] > s_s["psnr_all"] + 1.5
+    assert s_l["psnr_mid"] > s_s["psnr_mid"] + 0.5
+    assert s_l["psnr_all"] > s_s["psnr_all"] + gain_all
     assert s_l["cd_mid"] < s_s["cd_mid"] and s_l["cd_all"] < s_s["cd_all"]
 
 
