@@ -12,7 +12,9 @@ Inputs per keyframe (Sec. 4)
   the points where one part's outline ends against the occluder's. The paper predicts masks
   with a DINOv2 U-Net (weights unavailable here); :func:`suggest_occlusions` is the honest
   CPU substitute — the 2D overlap of non-adjacent limbs' capsules, a suggestion the user
-  accepts or edits (``predictor=`` is the seam for a learned one); with ``t_junctions=True``
+  accepts or edits (``predictor=`` is the seam for a learned one; ``widths=`` from
+  :func:`bone_widths` of a drawing with free limbs gives each bone its drawn width instead of
+  one capsule radius); with ``t_junctions=True``
   its regions carry :func:`suggest_t_junctions` (where the occluder's capsule outline meets the
   other outlines on the region's boundary), a CPU substitute for the user's clicks.
 * Joint depths near the regions (:attr:`Skeleton.depth`, smaller = nearer): they decide
@@ -73,7 +75,7 @@ from .template import Template, as_rgba_float, classical_foreground_mask
 
 __all__ = ["Occlusion", "OcclusionRegion", "LayeredTemplate", "valid_assignments",
            "count_valid_assignments", "refine_through_t_junctions", "switch_points", "incise",
-           "build_layered_template", "suggest_occlusions", "suggest_t_junctions",
+           "build_layered_template", "suggest_occlusions", "suggest_t_junctions", "bone_widths",
            "save_occlusions", "load_occlusions", "limb_overlaps"]
 
 #: A T-junction may lie at most this far (px) from its region's outline.
@@ -1170,7 +1172,8 @@ def _check_region_args(region, mask, radius, bones, skeleton):
     return R.astype(bool), fg.astype(bool), bones
 
 
-def suggest_t_junctions(region, skeleton, bones, radius, mask, front=None, min_run=4):
+def suggest_t_junctions(region, skeleton, bones, radius, mask, front=None, min_run=4,
+                        widths=None):
     """Suggested T-junctions of one suggested occlusion region — a CPU substitute for the
     user's clicks (Sec. 4.1), like :func:`suggest_occlusions` is for the mask network.
 
@@ -1202,6 +1205,8 @@ def suggest_t_junctions(region, skeleton, bones, radius, mask, front=None, min_r
         depth of ``bones`` (by :attr:`Skeleton.depth`), without depths (or all at one depth)
         the one bone farthest from the root in the hierarchy (a hand on the chest).
     min_run : int ≥ 1, shortest run (contour points ≈ px) that counts.
+    widths : None or dict joint name → capsule radius (px) of the bone it ends, as passed to
+        :func:`suggest_occlusions` (bones it lacks keep ``radius``).
 
     Returns
     -------
@@ -1225,8 +1230,13 @@ def suggest_t_junctions(region, skeleton, bones, radius, mask, front=None, min_r
     contour = max(find_contours(np.pad(R, 1).astype(float), 0.5), key=len)
     yx = contour[:-1] - 1.0
     xy = yx[:, ::-1]
-    d_front = np.abs(np.min([_capsule_distance(xy, *seg[j]) for j in front], axis=0) - radius)
-    d_back = np.abs(np.min([_capsule_distance(xy, *seg[j]) for j in back], axis=0) - radius)
+    r = _check_widths(widths, skeleton, radius)
+
+    def outline_distance(js):  # |distance to the union of the capsules' outlines|
+        return np.abs(np.min([_capsule_distance(xy, *seg[j]) - r.get(j, radius) for j in js],
+                             axis=0))
+
+    d_front, d_back = outline_distance(front), outline_distance(back)
     # distance to the silhouette: inside, to the nearest background pixel centre minus ½ px
     edt = ndimage.distance_transform_edt(fg) - 0.5
     ij = np.clip(np.round(yx).astype(int), 0, np.array(R.shape) - 1)
@@ -1236,7 +1246,7 @@ def suggest_t_junctions(region, skeleton, bones, radius, mask, front=None, min_r
 
 
 def suggest_occlusions(image, skeleton, radius=None, mask=None, predictor=None,
-                       t_junctions=False):
+                       t_junctions=False, widths=None):
     """Suggested occlusion regions of a keyframe: the CPU substitute for the paper's mask
     network (Sec. 4.1), for the user to accept or edit.
 
@@ -1248,6 +1258,14 @@ def suggest_occlusions(image, skeleton, radius=None, mask=None, predictor=None,
     :func:`suggest_t_junctions` — where the occluder's capsule outline meets the other outlines
     on the region's boundary, also a CPU heuristic. ``predictor``
     (``(image, skeleton) -> list of Occlusion``) replaces the heuristic with a learned one.
+
+    ``widths`` (dict joint name → px, e.g. :func:`bone_widths` of a drawing of the same
+    character whose limbs are free, such as its rest pose) gives each bone its own capsule
+    radius, the half-width the limb is drawn with; bones it lacks keep ``radius``. With them a
+    forearm across the belly suggests the forearm's whole width over the belly's, up to the
+    body's outline, instead of the overlap of two thin capsules (limbs drawn inside the body
+    have no silhouette of their own to measure, hence the other drawing). ``radius`` still
+    decides which bones overlap (:func:`limb_overlaps`).
 
     Returns list of :class:`Occlusion` (labels ``"<joint a>/<joint b>"``, bones named by their
     end joints).
@@ -1263,19 +1281,67 @@ def suggest_occlusions(image, skeleton, radius=None, mask=None, predictor=None,
         raise ValueError(f"mask must have the image's shape {(H, W)}, got {fg.shape}")
     if radius is None:
         radius = 0.06 * max(np.ptp(skeleton.xy[:, 1]), np.ptp(skeleton.xy[:, 0]), 1.0)
+    r = _check_widths(widths, skeleton, radius)
     yy, xx = np.mgrid[0:H, 0:W].astype(float)
     P = np.stack([xx, yy], axis=-1)
 
-    def capsule(a, b):
-        return _capsule_distance(P, a, b) < radius
+    def capsule(joint):
+        j = skeleton.index(joint)
+        return _capsule_distance(P, *skeleton.xy[[skeleton.parents[j], j]]) < r.get(joint, radius)
 
     out = []
     for ja, jb in limb_overlaps(skeleton, radius):
-        a, b = skeleton.index(ja), skeleton.index(jb)
-        xa = skeleton.xy[[skeleton.parents[a], a]]
-        xb = skeleton.xy[[skeleton.parents[b], b]]
-        m = capsule(*xa) & capsule(*xb) & fg
+        m = capsule(ja) & capsule(jb) & fg
         if m.sum() >= 16:
-            tj = suggest_t_junctions(m, skeleton, (ja, jb), radius, fg) if t_junctions else ()
+            tj = (suggest_t_junctions(m, skeleton, (ja, jb), radius, fg, widths=r)
+                  if t_junctions else ())
             out.append(Occlusion(m, tj, label=f"{ja}/{jb}"))
     return out
+
+
+def bone_widths(skeleton, mask, percentile=50.0, samples=24):
+    """Half-width (px) each bone is drawn with: the foreground's distance to its outline along
+    the bone's middle 60 % (``samples`` points; the ``percentile`` of the values inside the
+    foreground). Measure it on a drawing whose limbs are free — a rest pose, or the other key
+    — and pass it to :func:`suggest_occlusions` as ``widths``.
+
+    Returns dict joint name → half-width (px, ≥ 1), one entry per bone (named by its end
+    joint).
+    """
+    from scipy import ndimage
+
+    fg = np.asarray(mask)
+    if fg.ndim != 2 or fg.dtype != bool or not fg.any():
+        raise ValueError(f"mask must be a non-empty (H, W) bool array, got "
+                         f"{fg.dtype} {fg.shape}")
+    if isinstance(percentile, bool) or not 0 <= float(percentile) <= 100:
+        raise ValueError(f"percentile must be in [0, 100], got {percentile!r}")
+    if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 2:
+        raise ValueError(f"samples must be an int >= 2, got {samples!r}")
+    edt = ndimage.distance_transform_edt(fg)
+    H, W = fg.shape
+    s = np.linspace(0.2, 0.8, int(samples))[:, None]
+    out = {}
+    for j, p in enumerate(skeleton.parents):
+        if p < 0:
+            continue
+        a, b = skeleton.xy[p], skeleton.xy[j]
+        ij = np.clip(np.round((a + s * (b - a))[:, ::-1]).astype(int), 0, [H - 1, W - 1])
+        v = edt[ij[:, 0], ij[:, 1]]
+        v = v[v > 0]
+        out[skeleton.names[j]] = max(float(np.percentile(v, percentile)), 1.0) if len(v) else 1.0
+    return out
+
+
+def _check_widths(widths, skeleton, radius):
+    """``widths`` as a dict joint → positive px (empty for None), validated."""
+    if widths is None:
+        return {}
+    if not isinstance(widths, dict):
+        raise ValueError(f"widths must be a dict joint name -> px (e.g. bone_widths(...)), got "
+                         f"{type(widths).__name__}")
+    for j, v in widths.items():
+        _bone_of(skeleton, j, "widths")
+        if isinstance(v, bool) or not np.isfinite(v) or v <= 0:
+            raise ValueError(f"widths[{j!r}] must be a positive number of px, got {v!r}")
+    return {j: float(v) for j, v in widths.items()}

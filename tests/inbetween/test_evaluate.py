@@ -359,3 +359,13 @@ def test_occluded_drawing_regions_carry_suggested_t_junctions(real_data):
         assert d.max() <= T_JUNCTION_TOLERANCE
     off = evaluate.OccludedDrawingPair("char4_dab", *shot, size=128, t_junctions=False)
     assert all(len(o.t_junctions) == 0 for key in off.occlusions() for o in key)
+    # capsules as wide as the limbs in the rest drawing (char2: a dress and arms of some width)
+    shot2 = evaluate.AD_OCCLUDED_SHOTS["char2_dab"]
+    thin, wide = (evaluate.OccludedDrawingPair("char2_dab", *shot2, size=192, rest_widths=w)
+                  for w in (False, True))
+    assert thin.widths is None and wide.widths["torso"] > wide.widths["left_hand"] > 1.0
+    a = [sum(o.mask.sum() for o in key) for key in thin.occlusions()]
+    b = [sum(o.mask.sum() for o in key) for key in wide.occlusions()]
+    assert a != b and sum(b) > 0
+    with pytest.raises(ValueError, match="rest_widths"):
+        evaluate.OccludedDrawingPair("char2_dab", *shot2, size=192, rest_widths="yes")
