@@ -1230,7 +1230,7 @@ def suggest_t_junctions(region, skeleton, bones, radius, mask, front=None, min_r
     contour = max(find_contours(np.pad(R, 1).astype(float), 0.5), key=len)
     yx = contour[:-1] - 1.0
     xy = yx[:, ::-1]
-    r = _check_widths(widths, skeleton, radius)
+    r = _check_widths(widths, skeleton)
 
     def outline_distance(js):  # |distance to the union of the capsules' outlines|
         return np.abs(np.min([_capsule_distance(xy, *seg[j]) - r.get(j, radius) for j in js],
@@ -1281,7 +1281,7 @@ def suggest_occlusions(image, skeleton, radius=None, mask=None, predictor=None,
         raise ValueError(f"mask must have the image's shape {(H, W)}, got {fg.shape}")
     if radius is None:
         radius = 0.06 * max(np.ptp(skeleton.xy[:, 1]), np.ptp(skeleton.xy[:, 0]), 1.0)
-    r = _check_widths(widths, skeleton, radius)
+    r = _check_widths(widths, skeleton)
     yy, xx = np.mgrid[0:H, 0:W].astype(float)
     P = np.stack([xx, yy], axis=-1)
 
@@ -1314,7 +1314,8 @@ def bone_widths(skeleton, mask, percentile=50.0, samples=24):
     if fg.ndim != 2 or fg.dtype != bool or not fg.any():
         raise ValueError(f"mask must be a non-empty (H, W) bool array, got "
                          f"{fg.dtype} {fg.shape}")
-    if isinstance(percentile, bool) or not 0 <= float(percentile) <= 100:
+    if isinstance(percentile, bool) or not isinstance(percentile, (int, float, np.number)) \
+            or not 0 <= percentile <= 100:
         raise ValueError(f"percentile must be in [0, 100], got {percentile!r}")
     if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 2:
         raise ValueError(f"samples must be an int >= 2, got {samples!r}")
@@ -1333,7 +1334,7 @@ def bone_widths(skeleton, mask, percentile=50.0, samples=24):
     return out
 
 
-def _check_widths(widths, skeleton, radius):
+def _check_widths(widths, skeleton):
     """``widths`` as a dict joint → positive px (empty for None), validated."""
     if widths is None:
         return {}
@@ -1342,6 +1343,7 @@ def _check_widths(widths, skeleton, radius):
                          f"{type(widths).__name__}")
     for j, v in widths.items():
         _bone_of(skeleton, j, "widths")
-        if isinstance(v, bool) or not np.isfinite(v) or v <= 0:
+        if isinstance(v, bool) or not isinstance(v, (int, float, np.number)) \
+                or not np.isfinite(v) or v <= 0:
             raise ValueError(f"widths[{j!r}] must be a positive number of px, got {v!r}")
     return {j: float(v) for j, v in widths.items()}

@@ -460,8 +460,9 @@ def test_bone_widths_are_the_renderers_limb_radii():
         assert abs(w[joint] - true) <= 0.12 * true + 0.6, (joint, w[joint], true)
     with pytest.raises(ValueError, match="mask"):
         bone_widths(rest, fg.astype(float))
-    with pytest.raises(ValueError, match="percentile"):
-        bone_widths(rest, fg, percentile=120)
+    for bad in (120, "50", True):
+        with pytest.raises(ValueError, match="percentile"):
+            bone_widths(rest, fg, percentile=bad)
 
 
 # measured at 192 px, widths from the rest drawing: IoU of the suggestion with the true region
@@ -497,7 +498,8 @@ def test_drawn_widths_suggest_the_region_and_t_junctions_nearer_the_truth(name):
     same = suggest_occlusions(k1, sk, t_junctions=True, widths={j: r for j in w})
     assert all(np.array_equal(a.mask, b.mask) and np.allclose(a.t_junctions, b.t_junctions)
                for a, b in zip(same, thin)) and len(same) == len(thin)
-    for bad, msg in (([1.0], "dict"), ({"nose": 3.0}, "nose"), ({"left_hand": -1.0}, "left_hand")):
+    for bad, msg in (([1.0], "dict"), ({"nose": 3.0}, "nose"), ({"left_hand": -1.0}, "left_hand"),
+                     ({"left_hand": "4"}, "left_hand")):
         with pytest.raises(ValueError, match=msg):
             suggest_occlusions(k1, sk, widths=bad)
 
