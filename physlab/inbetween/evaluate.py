@@ -750,7 +750,7 @@ class OccludedDrawingPair:
 
             self.widths = bone_widths(self.rest, self.mask)
         self.skeleton0, self.skeleton1 = self.skeleton_at([0.0, 1.0])
-        self._template, self._frames = None, {}
+        self._template, self._frames, self._occlusions = None, {}, None
 
     def __repr__(self):
         return f"OccludedDrawingPair({self.name!r}, {self.style}, size={self.size})"
@@ -796,16 +796,22 @@ class OccludedDrawingPair:
 
     def occlusions(self):
         """Suggested occlusion regions of both keys: ``(list, list)`` of
-        :class:`~physlab.inbetween.occlusion.Occlusion` (class docstring)."""
+        :class:`~physlab.inbetween.occlusion.Occlusion` (class docstring; computed once)."""
+        if self._occlusions is None:
+            self._occlusions = self._suggest_occlusions()
+        return self._occlusions
+
+    def _suggest_occlusions(self):
         from scipy import ndimage
 
         from .occlusion import Occlusion, suggest_occlusions, suggest_t_junctions
 
         out = []
         for key, sk in zip(self.keyframes(), (self.skeleton0, self.skeleton1)):
+            fg = key[..., 3] > 0.5
             pairs = {frozenset(o[:2]) for o in limb_body_overlaps(sk, self.rest, self.radius)}
             sug = [o for o in suggest_occlusions(key, sk, radius=self.radius,
-                                                 mask=key[..., 3] > 0.5, widths=self.widths)
+                                                 mask=fg, widths=self.widths)
                    if frozenset(o.label.split("/")) in pairs]
             # overlapping suggestions (one hand on torso and neck) become one region: the
             # layered template takes at most two layers per region
@@ -822,7 +828,7 @@ class OccludedDrawingPair:
                     tj = ()
                     if self.t_junctions:
                         bones = [j for n in names for j in n.split("/")]
-                        tj = suggest_t_junctions(m, sk, bones, self.radius, key[..., 3] > 0.5,
+                        tj = suggest_t_junctions(m, sk, bones, self.radius, fg,
                                                  widths=self.widths)
                     regs.append(Occlusion(m, tj, label="+".join(names)))
             out.append(regs)

@@ -1285,9 +1285,14 @@ def suggest_occlusions(image, skeleton, radius=None, mask=None, predictor=None,
     yy, xx = np.mgrid[0:H, 0:W].astype(float)
     P = np.stack([xx, yy], axis=-1)
 
-    def capsule(joint):
-        j = skeleton.index(joint)
-        return _capsule_distance(P, *skeleton.xy[[skeleton.parents[j], j]]) < r.get(joint, radius)
+    caps = {}
+
+    def capsule(joint):  # each bone's capsule once, though it may overlap several bones
+        if joint not in caps:
+            j = skeleton.index(joint)
+            caps[joint] = (_capsule_distance(P, *skeleton.xy[[skeleton.parents[j], j]])
+                           < r.get(joint, radius))
+        return caps[joint]
 
     out = []
     for ja, jb in limb_overlaps(skeleton, radius):
