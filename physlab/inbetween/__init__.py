@@ -12,8 +12,9 @@ ground-truth in-betweens, the benchmarks).
 """
 from .characters import (ADJACENT_PARTS, CHARACTER_JOINTS, CHARACTER_PARTS, CHARACTER_STYLES,
                          PAINT_ORDER, InbetweenPair, character_occlusions, character_part_labels,
-                         character_skeleton, inbetween_benchmark, occlusion_benchmark,
-                         paint_order, part_overlaps, pose_character, render_character)
+                         character_layered_occlusions, character_skeleton,
+                         inbetween_benchmark, occlusion_benchmark,
+                         occlusion_benchmark_three_layers, paint_order, part_overlaps, pose_character, render_character)
 from .deform import (SymmetricDirichletDeformer, deform, symmetric_dirichlet_energy,
                      symmetric_dirichlet_gradient)
 from .occlusion import (LayeredTemplate, Occlusion, build_layered_template, load_occlusions,
@@ -28,6 +29,7 @@ __all__ = ["Skeleton", "check_compatible", "interpolate", "INTERPOLATION_METHODS
            "CHARACTER_STYLES", "CHARACTER_JOINTS", "CHARACTER_PARTS", "ADJACENT_PARTS",
            "PAINT_ORDER", "character_skeleton", "pose_character", "render_character",
            "character_part_labels", "part_overlaps", "InbetweenPair", "inbetween_benchmark",
-           "occlusion_benchmark", "character_occlusions", "paint_order", "Occlusion",
+           "occlusion_benchmark", "occlusion_benchmark_three_layers", "character_occlusions",
+           "character_layered_occlusions", "paint_order", "Occlusion",
            "LayeredTemplate", "build_layered_template", "suggest_occlusions", "save_occlusions",
            "load_occlusions", "suggest_t_junctions"]

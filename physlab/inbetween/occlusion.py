@@ -19,6 +19,11 @@ Inputs per keyframe (Sec. 4)
   other outlines on the region's boundary), a CPU substitute for the user's clicks.
 * Joint depths near the regions (:attr:`Skeleton.depth`, smaller = nearer): they decide
   which layer is in front after the topology is found (Sec. 5.1).
+* Where more than two parts overlap (a forearm in front of the torso in front of the other
+  arm, Fig. 9), the paper asks for "occlusion masks, one per layer, sorted by depth" (Sec. 4):
+  regions may overlap, each adds one layer over its area, and in an overlap the region listed
+  first hides the nearer part (:func:`~physlab.inbetween.characters.
+  character_layered_occlusions` gives such masks for the procedural character).
 
 Building the template (:func:`build_layered_template`)
 ------------------------------------------------------
@@ -30,11 +35,22 @@ Building the template (:func:`build_layered_template`)
 2. **Base mesh** (Sec. 4.2): a conforming Delaunay triangulation of the foreground with the
    region outlines as constrained edges (Triangle, minimum angle 20°), so every triangle is
    inside or outside each region; handles (joints and bone midpoints) are vertices.
-3. **Pockets** (Sec. 4.2): every region's triangles are duplicated as a second layer sewn to
-   the base mesh along the whole outline. Handles inside a region go to one layer: nearer
-   handles (by joint depth) to layer A, farther ones to layer B (the paper inserts them into
-   an "arbitrary" layer; with limbs of both depths inside one region an arbitrary choice can
-   put both into one layer, which no cut can fix).
+   Overlapping outlines cross (Triangle inserts the crossings), so the overlap of two regions
+   is meshed as its own piece with a constrained outline.
+3. **Pockets** (Sec. 4.2, :func:`sew_pockets`): every region's triangles are duplicated as a
+   second layer sewn to the base mesh along the whole outline. Handles inside a region go to
+   one layer: nearer handles (by joint depth) to layer A, farther ones to layer B (the paper
+   inserts them into an "arbitrary" layer; with limbs of both depths inside one region an
+   arbitrary choice can put both into one layer, which no cut can fix).
+   **Nested pockets** (more than two layers): every pocket covers its whole region, so where
+   ``m`` regions overlap there are ``m + 1`` layers — the base and one pocket per region; a
+   region's outline running inside another region is sewn to the base layer there, and the
+   other region's pocket runs across it. The layers of an overlap are stacked in the order the
+   occlusions are listed (base, then the pockets, front to back); the distinct joint depths
+   of the handles in the overlapping regions, clustered into ``m + 1`` groups, put every
+   handle there on its layer, and each region's own (non-overlapping) part splits its handles
+   as above. Fewer distinct depths than layers, or a listed order the handles' depths
+   contradict, raise a ValueError.
 4. **Switching rule and topology** (Secs. 4.3–4.4, Eq. 2, Algorithm 1): every outline edge
    ``i`` gets ``b_i`` — which layer (A: 0, B: 1) stays attached to the outside there; the
    other layer is *incised* along it (vertex re-indexing, :func:`incise`). ``b`` may switch
@@ -44,17 +60,23 @@ Building the template (:func:`build_layered_template`)
    target pose (``E_d + E_pose``, Eq. 1) and the cheapest kept, region by region. For odd
    ``k`` the paper searches the cusp with optuna's TPE; physlab scans every ``s``-th cusp
    position then refines around the best (a deterministic coarse-to-fine substitute, no extra
-   dependency). **Non-manifold edges** (Sec. 4.3): near multi-valence joints (chest, pelvis)
+   dependency). Overlapping regions are scored the same way, one at a time with the others
+   fixed (Algorithm 1): region ``r``'s ``b_i`` chooses between its base triangles and its own
+   pocket at each of its outline edges, whatever other layers cover the place. **Non-manifold edges** (Sec. 4.3): near multi-valence joints (chest, pelvis)
    the outline edge closest to the joint that a bone crosses keeps both layers attached.
 5. **Depth of layers** (Sec. 5.1): bounded biharmonic weights of the handles on the layered
    (non-manifold) mesh (libigl ``bbw``) times the handles' depths give every vertex a depth;
-   the layer with the smaller mean depth in a region is its front layer. Triangles are drawn
-   back to front by this depth in every frame (painter's algorithm), so a limb that moves over
-   the body is drawn over it.
+   the layer with the smaller mean depth in a region is its front layer. Where regions overlap,
+   each connected piece of equal cover sorts its ``m + 1`` layers by mean depth
+   (:attr:`LayeredTemplate.layer_rank`: 0 the visible layer, ``k`` the ``k``-th hidden one).
+   Triangles are drawn back to front by this depth in every frame (painter's algorithm), so a
+   limb that moves over the body is drawn over it.
 6. **Texturing** (Sec. 5.1): the base mesh and each front layer take the keyframe; a back
    layer takes the *other* keyframe where, deformed into that pose, its triangle lands fully on
    the other key's foreground and outside its occlusion regions, and is inpainted elsewhere
-   (OpenCV Telea as the stand-in for LaMa; ``inpainter=`` is the seam). The inpainted
+   (OpenCV Telea as the stand-in for LaMa; ``inpainter=`` is the seam). The ``k``-th hidden
+   layer has its own band of the texture atlas (where three parts overlap, the middle and the
+   back layer carry different textures). The inpainted
    texels are kept as a mask of the texture atlas (:attr:`LayeredTemplate.inpainted`, a texture
    channel): :meth:`LayeredTemplate.render_inpainted` draws it like the texture, so every
    deformed frame knows which of its visible pixels were inpainted — the area whose IoU is the
@@ -75,6 +97,7 @@ from .template import Template, as_rgba_float, classical_foreground_mask
 
 __all__ = ["Occlusion", "OcclusionRegion", "LayeredTemplate", "valid_assignments",
            "count_valid_assignments", "refine_through_t_junctions", "switch_points", "incise",
+           "sew_pockets",
            "build_layered_template", "suggest_occlusions", "suggest_t_junctions", "bone_widths",
            "save_occlusions", "load_occlusions", "limb_overlaps"]
 
@@ -386,8 +409,11 @@ class OcclusionRegion:
     b : (n,) int8, the chosen assignment (0: layer A attached to the outside at that edge,
         1: layer B), ``cusp`` its cusp vertex or None.
     energies : list of (b, cusp, energy) of every assignment tried.
-    front : "A" or "B", the layer in front (Sec. 5.1), ``depth`` (2,) mean layer depths.
+    front : "A" or "B", the layer in front (Sec. 5.1), ``depth`` (2,) mean layer depths, over
+        the whole region (where it overlaps other regions the triangles' order is
+        :attr:`LayeredTemplate.layer_rank`).
     label : the :class:`Occlusion`'s label.
+    overlaps : indices of the other regions it overlaps (a third layer or more there).
     """
 
     loop: np.ndarray
@@ -402,6 +428,7 @@ class OcclusionRegion:
     front: str = "A"
     depth: np.ndarray = None
     label: str = ""
+    overlaps: tuple = ()
 
     @property
     def n_edges(self):
@@ -484,13 +511,17 @@ class LayeredTemplate(Template):
     ----------------
     regions : list of :class:`OcclusionRegion`.
     vertex_layer : (n,) int8, 0 for the base mesh, 1 for pocket vertices.
+    layer_rank : (T,) int8, depth rank of every triangle among the layers stacked where it lies
+        (Sec. 5.1): 0 visible in the keyframe, 1 the first hidden layer, 2 the one behind it
+        (where two occlusion regions overlap), …; :attr:`n_layers` is ``1 + max``.
     handle_weights : (n, K) float, bounded biharmonic weights of the handles (Sec. 5.1).
     handle_depth : (K,) float, depth of each handle (joints, then bone midpoints) at rest.
-    texture : (2H, W, 4) float32 atlas: the keyframe on top, the back layers' texture below.
+    texture : ((1 + K) H, W, 4) float32 atlas, ``K = max(1, n_layers − 1)``: the keyframe on
+        top, below it one band per hidden rank (``(2H, W, 4)`` with two layers).
     tex_coords : (T, 3, 2) texture position of every triangle corner in the atlas.
     inpainted_fraction : float in [0, 1], share of back-layer area that had to be inpainted
         (0 without occlusions).
-    inpainted : (2H, W) bool mask of the atlas: the texels of ``texture`` that came from
+    inpainted : ((1 + K) H, W) bool mask of the atlas: the texels of ``texture`` that came from
         inpainting (Sec. 5.1); the top half (the keyframe) is all False, and so is everything
         without back layers. :meth:`render_inpainted` draws it into a pose.
     occlusions : list of the :class:`Occlusion` it was built from.
@@ -505,6 +536,7 @@ class LayeredTemplate(Template):
     inpainted_fraction: float = 0.0
     occlusions: list = field(default_factory=list)
     inpainted: np.ndarray = None
+    layer_rank: np.ndarray = None
 
     def __repr__(self):
         h, w = self.image.shape[:2]
@@ -525,10 +557,19 @@ class LayeredTemplate(Template):
     def back_triangles(self):
         """(T,) bool: the triangles of the back layers (Sec. 5.1), textured from the atlas'
         lower half."""
+        if self.layer_rank is not None:
+            return self.layer_rank > 0
         back = np.zeros(self.mesh.n_tris, bool)
         for reg in self.regions:
             back[reg.tris_b if reg.front == "A" else reg.tris_a] = True
         return back
+
+    @property
+    def n_layers(self):
+        """Most layers stacked anywhere: 1 (a single sheet), 2 (pockets), 3+ where occlusion
+        regions overlap."""
+        return 1 + (int(self.layer_rank.max()) if self.layer_rank is not None
+                    and len(self.layer_rank) else 0)
 
     def _draw(self, texture, x, out_shape, supersample, skeleton, triangles=None):
         """Warp an atlas-shaped ``texture`` by the triangles (all, or the index array
@@ -609,6 +650,128 @@ class LayeredTemplate(Template):
         return (out[..., 0] > 0.5) & (out[..., 3] > 0.0)
 
 
+def _triangle_cells(tris, regions):
+    """Which regions cover each base triangle, and the connected pieces of equal cover.
+
+    Returns ``(cover (T, R) bool, cell (T,) int)``: triangles sharing an edge and covered by
+    the same regions are in one cell (a cell covered by ``m`` regions has ``m + 1`` layers)."""
+    from scipy.sparse.csgraph import connected_components
+
+    T = len(tris)
+    cover = np.zeros((T, len(regions)), bool)
+    for r, reg in enumerate(regions):
+        cover[reg.tris_a, r] = True
+    _, sig = np.unique(cover, axis=0, return_inverse=True)
+    sig = sig.ravel()
+    E = np.sort(np.concatenate([tris[:, [0, 1]], tris[:, [1, 2]], tris[:, [2, 0]]]), axis=1)
+    tid = np.tile(np.arange(T), 3)
+    order = np.lexsort((E[:, 1], E[:, 0]))
+    E, tid = E[order], tid[order]
+    shared = np.all(E[1:] == E[:-1], axis=1)
+    a, b = tid[:-1][shared], tid[1:][shared]
+    keep = sig[a] == sig[b]
+    graph = sparse.coo_matrix((np.ones(keep.sum()), (a[keep], b[keep])), shape=(T, T))
+    return cover, connected_components(graph, directed=False)[1]
+
+
+def _depth_clusters(levels, k):
+    """Cluster the sorted distinct depths ``levels`` into ``k`` groups at the ``k − 1`` largest
+    gaps; returns (len(levels),) int group of each level, 0 = nearest."""
+    if k <= 1 or len(levels) <= 1:
+        return np.zeros(len(levels), np.int64)
+    gaps = np.argsort(-np.diff(levels), kind="stable")[:k - 1]
+    group = np.zeros(len(levels), np.int64)
+    for g in gaps:
+        group[g + 1:] += 1
+    return group
+
+
+def _hidden_depths(mesh, skeleton, cover, samples=32):
+    """(R,) depth of the part each region hides, read off the skeleton where the region does
+    not overlap another: the deepest point of the bones (``samples`` points each, depth linear
+    between the joints) inside the region's own triangles; NaN where no bone passes there (a
+    region nested inside another)."""
+    from ..mesh import locate_points
+
+    b = skeleton.bones
+    s = np.linspace(0.0, 1.0, samples)[:, None, None]
+    P = (skeleton.xy[b[:, 0]][None] + s * (skeleton.xy[b[:, 1]] - skeleton.xy[b[:, 0]])[None])
+    D = (skeleton.depth[b[:, 0]][None] + s[..., 0] * (skeleton.depth[b[:, 1]]
+                                                      - skeleton.depth[b[:, 0]])[None])
+    t = np.atleast_1d(locate_points(mesh, P.reshape(-1, 2))[0]).astype(np.int64)
+    D = D.ravel()
+    inside = t >= 0
+    own = cover.sum(axis=1) == 1                           # triangles of one region only
+    out = np.full(cover.shape[1], np.nan)
+    for r in range(cover.shape[1]):
+        hit = inside.copy()
+        hit[inside] = own[t[inside]] & cover[t[inside], r]
+        if hit.any():
+            out[r] = D[hit].max()
+    return out
+
+
+def _layered_handle_pockets(tri0, hdepth, cover, cell, hidden, name):
+    """Layer of each handle when regions overlap (Sec. 4.2 with masks "one per layer, sorted by
+    depth", Sec. 4): ``(K,) int``, the region whose pocket holds the handle, −1 for the base.
+
+    A cell covered by one region splits its handles at the largest depth gap, nearer ones on
+    the base layer, farther ones in the pocket (as without overlaps, but per connected cell).
+    A cell covered by regions ``r_1 < … < r_m`` has ``m + 1`` layers stacked in the order the
+    occlusions are listed — base, pocket of ``r_1``, …, pocket of ``r_m`` (front to back) —
+    and the distinct joint depths of the handles in those regions, clustered into ``m + 1``
+    groups at the largest gaps, put each handle on its layer.
+
+    ``hidden`` (R,) is the depth of the part each region hides (:func:`_hidden_depths`, NaN
+    when unknown).
+
+    Raises ValueError when the joints' depths have fewer distinct values than a cell has layers
+    (they cannot order them), and when the order of the occlusions contradicts ``hidden`` (of
+    two overlapping regions, the one listed first must hide the nearer part).
+    """
+    K = len(tri0)
+    out = np.full(K, -1, np.int64)
+    hcell = cell[tri0]
+    hcover = cover[tri0]                                   # (K, R)
+    for c in np.unique(cell[cover.sum(axis=1) == 1]):
+        rs = np.flatnonzero(cover[np.flatnonzero(cell == c)[0]])
+        hs = np.flatnonzero(hcell == c)
+        if len(hs) and np.ptp(hdepth[hs]) > 1e-9:
+            d = np.sort(hdepth[hs])
+            gap = np.argmax(np.diff(d))
+            out[hs[hdepth[hs] > 0.5 * (d[gap] + d[gap + 1])]] = rs[0]
+    for c in np.unique(cell[cover.sum(axis=1) > 1]):
+        rs = np.flatnonzero(cover[np.flatnonzero(cell == c)[0]])
+        L = len(rs) + 1
+        near = np.flatnonzero(hcover[:, rs].any(axis=1))   # handles in any of these regions
+        levels = np.unique(np.round(hdepth[near], 9))
+        which = " and ".join(f"occlusions[{r}]" for r in rs)
+        if len(levels) < L:
+            raise ValueError(
+                f"{name}: {which} overlap, so {L} layers lie there, but the joints in those "
+                f"regions have only {len(levels)} distinct depth(s) {levels.tolist()} in "
+                f"skeleton.depth: give the {L} overlapping parts {L} different depths "
+                "(smaller = nearer), e.g. skeleton.with_depth({'left_hand': -1.0, "
+                "'right_hand': 1.0})")
+        group = _depth_clusters(levels, L)
+        h = hidden[rs]                                     # the order must match the depths
+        known = np.flatnonzero(np.isfinite(h))
+        bad = np.flatnonzero(np.diff(h[known]) < -1e-9)
+        if len(bad):
+            a, b = rs[known[bad[0]]], rs[known[bad[0] + 1]]
+            raise ValueError(
+                f"{name}: occlusions are listed in an order the joint depths contradict: "
+                f"occlusions[{a}] comes before occlusions[{b}], which overlaps it, but hides a "
+                f"deeper part (depth {hidden[a]:g} > {hidden[b]:g} in skeleton.depth). List "
+                "overlapping occlusions nearest hidden part first (one mask per layer, sorted "
+                f"by depth, Sec. 4): put occlusions[{b}] before occlusions[{a}]")
+        hs = np.flatnonzero(hcell == c)
+        if len(hs):
+            g = group[np.searchsorted(levels, np.round(hdepth[hs], 9))]
+            out[hs] = np.where(g > 0, rs[np.maximum(g - 1, 0)], -1)
+    return out
+
+
 def _handle_depth(skeleton):
     if skeleton.depth is None:
         return None
@@ -632,13 +795,24 @@ def incise(tris, regions, assignments, n_vertices=None):
     assignments : list of (n_r,) int8 ``b`` per region.
     n_vertices : int, vertices of the sewn template (default ``tris.max() + 1``).
 
+    Where regions overlap (:attr:`OcclusionRegion.overlaps`, nested pockets) an outline vertex
+    may lie on several outlines, and the layers meeting there are more than two; then every
+    outline vertex is split by what its edges attach (:func:`_incise_overlapping`): the
+    triangles around it that stay connected — through edges inside a layer, and across each
+    outline edge through the layer ``b`` attaches to the outside — keep one vertex, and every
+    other connected group gets its own copy. With one region at a vertex this is the rule
+    above.
+
     Returns
     -------
     (tris', n_new, copies): the re-indexed triangles, the number of vertices added, and the
-    ``(original vertex, layer)`` of each added vertex (vertex ids ``n, n+1, …``).
+    ``(original vertex, layer)`` of each added vertex (vertex ids ``n, n+1, …``; layer 0 for
+    copies in the base mesh, 1 in a pocket).
     """
     tris = np.array(tris, copy=True)
     n0 = int(tris.max()) + 1 if n_vertices is None else int(n_vertices)
+    if any(len(reg.overlaps) for reg in regions):
+        return _incise_overlapping(tris, regions, assignments, n0)
     copies = []
     for reg, b in zip(regions, assignments):
         n = reg.n_edges
@@ -654,6 +828,131 @@ def incise(tris, regions, assignments, n_vertices=None):
                 sub = tris[sel]
                 sub[sub == v] = new
                 tris[sel] = sub
+    return tris, len(copies), copies
+
+
+def sew_pockets(X, tris, region_tris):
+    """The initial template (Sec. 4.2): every region's triangles duplicated as one more layer —
+    a *pocket* — sewn to the mesh along the region's outline.
+
+    The pocket copies the region's vertices except those on its outline (the longest boundary
+    loop of its triangles), so it shares exactly the outline with the base mesh. Regions may
+    overlap (masks "one per layer", Sec. 4): each pocket covers its whole region, so where
+    ``m`` regions overlap there are ``m + 1`` layers — the base mesh and one pocket per region
+    — and a region's outline running inside another region is sewn to the base layer there
+    while the other region's pocket runs across it (nested pockets).
+
+    Parameters
+    ----------
+    X : (n, 2) float base-mesh vertices.
+    tris : (T, 3) int base-mesh triangles.
+    region_tris : list of int index arrays into ``tris``, the triangles of each region.
+
+    Returns
+    -------
+    (X_all (n + p, 2), tris_all (T + Σ|region|, 3), regions): the sewn template (pockets
+    appended in region order) and one :class:`OcclusionRegion` per region with ``loop``,
+    ``tris_a``, ``tris_b``, ``pocket_of``, ``overlaps`` set (no T-junctions, no non-manifold
+    edges yet).
+    """
+    X = np.asarray(X, dtype=float)
+    tris = np.asarray(tris)
+    regions, pocket_tris, pocket_X = [], [], []
+    n_base = len(X)
+    for sel in region_tris:
+        sel = np.asarray(sel)
+        loop = _loop_of(tris[sel])
+        # pocket: copies of the region's interior vertices, outline shared
+        verts = np.unique(tris[sel])
+        interior = np.setdiff1d(verts, loop)
+        start = n_base + sum(len(p) for p in pocket_X)
+        pocket_of = {int(v): start + i for i, v in enumerate(interior)}
+        pocket_X.append(X[interior])
+        pt = tris[sel].copy()
+        for v, w in pocket_of.items():
+            pt[tris[sel] == v] = w
+        first_b = len(tris) + sum(len(p) for p in pocket_tris)
+        pocket_tris.append(pt)
+        regions.append(OcclusionRegion(
+            loop=loop, t_junctions=np.zeros(0, np.int64), non_manifold=np.zeros(len(loop), bool),
+            tris_a=sel, tris_b=np.arange(first_b, first_b + len(sel)), pocket_of=pocket_of))
+    for r, reg in enumerate(regions):
+        reg.overlaps = tuple(q for q, other in enumerate(regions)
+                             if q != r and np.intersect1d(reg.tris_a, other.tris_a).size)
+    X_all = np.concatenate([X] + pocket_X) if pocket_X else X
+    tris_all = np.concatenate([tris] + pocket_tris) if pocket_tris else tris
+    return X_all, tris_all, regions
+
+
+def _incise_overlapping(tris, regions, assignments, n0):
+    """:func:`incise` for overlapping regions: split every outline vertex into the connected
+    groups of its triangles (union–find over the edges at the vertex; an outline edge of
+    region ``r`` joins the triangles outside ``r`` with ``r``'s base triangles if ``b_i = 0``,
+    with its pocket if ``b_i = 1``, with both on non-manifold edges; any other edge joins the
+    triangles of one layer sharing it — a chord between two outline vertices is shared by the
+    base and the pocket, which stay apart there). The group of the vertex's first triangle
+    keeps the id."""
+    orig = np.asarray(tris)
+    tris = orig.copy()
+    layer = np.full(len(orig), -1, np.int64)           # -1 base mesh, r the pocket of region r
+    member = []                                        # per region: 0 outside, 1 base, 2 pocket
+    for r, reg in enumerate(regions):
+        m = np.zeros(len(orig), np.int8)
+        m[reg.tris_a], m[reg.tris_b] = 1, 2
+        layer[reg.tris_b] = r
+        member.append(m)
+    pocket = layer >= 0
+    on_loop = {}
+    for r, (reg, b) in enumerate(zip(regions, assignments)):
+        n = reg.n_edges
+        for i in range(n):
+            u, v = int(reg.loop[i]), int(reg.loop[(i + 1) % n])
+            on_loop.setdefault((min(u, v), max(u, v)), []).append(
+                (r, int(np.asarray(b)[i]), bool(reg.non_manifold[i])))
+    copies = []
+    for v in sorted({int(w) for reg in regions for w in reg.loop}):
+        ts = np.flatnonzero((orig == v).any(axis=1))
+        parent = {int(t): int(t) for t in ts}
+
+        def find(t):
+            while parent[t] != t:
+                parent[t] = parent[parent[t]]
+                t = parent[t]
+            return t
+
+        def join(group):
+            group = [int(t) for t in group]
+            for t in group[1:]:
+                parent[find(t)] = find(group[0])
+
+        for u in np.unique(orig[ts]):
+            if u == v:
+                continue
+            share = ts[(orig[ts] == u).any(axis=1)]
+            rules = on_loop.get((min(v, int(u)), max(v, int(u))))
+            if not rules:
+                for lay in np.unique(layer[share]):
+                    join(share[layer[share] == lay])
+                continue
+            for r, b, nm in rules:
+                kind = member[r][share]
+                out = share[(kind == 0) & ~pocket[share]]      # the base mesh outside r
+                if b == 0 or nm:
+                    join(np.r_[out, share[kind == 1]])
+                if b == 1 or nm:
+                    join(np.r_[out, share[kind == 2]])
+                join(out)
+        roots = np.array([find(int(t)) for t in ts])
+        keep = roots[0]
+        for root in dict.fromkeys(roots.tolist()):
+            if root == keep:
+                continue
+            group = ts[roots == root]
+            new = n0 + len(copies)
+            copies.append((v, 1 if pocket[group].all() else 0))
+            sub = tris[group]
+            sub[orig[group] == v] = new
+            tris[group] = sub
     return tris, len(copies), copies
 
 
@@ -674,6 +973,9 @@ def build_layered_template(image, skeleton, occlusions=(), mask=None, mask_predi
     image : (H, W, 3|4) keyframe.
     skeleton : Skeleton (pixels), with ``depth`` when regions hold limbs of different depth.
     occlusions : list of :class:`Occlusion` (empty: a single sheet, drawn in depth order).
+        Regions may overlap: each adds a layer over its area (Sec. 4, "one mask per layer,
+        sorted by depth"), and in an overlap the occlusion listed first hides the nearer part
+        (e.g. ``[torso under the left forearm, right forearm under torso and left forearm]``).
     mask, mask_predictor, max_area, epsilon, min_angle, grow : as
         :func:`~physlab.inbetween.template.build_template`.
     target_skeletons : list of Skeletons the template is deformed through to score the
@@ -702,7 +1004,10 @@ def build_layered_template(image, skeleton, occlusions=(), mask=None, mask_predi
     Raises
     ------
     ValueError for masks of another size, occlusions outside the foreground, T-junctions off
-    their outline, a skeleton without depth when a region holds handles of both layers…
+    their outline, a skeleton without depth when a region holds handles of both layers, a
+    region repeating an earlier one (IoU > 0.8), overlapping regions whose joints have fewer
+    distinct depths than the layers there, or overlapping occlusions listed in an order the
+    joint depths contradict…
     """
     from scipy import ndimage
     from scipy.spatial import cKDTree
@@ -730,7 +1035,8 @@ def build_layered_template(image, skeleton, occlusions=(), mask=None, mask_predi
                          "skeleton.with_depth({'left_hand': -1.0, ...}) (smaller = nearer)")
     inner = ndimage.binary_erosion(mask, iterations=2)
     seen = np.zeros((H, W), bool)
-    polys, tj_pos, labels = [], [], []
+    polys, tj_pos, labels, region_masks = [], [], [], []
+    partners = []  # per region: the earlier regions it overlaps (a third layer there)
     for i, o in enumerate(occlusions):
         m = o.mask_array((H, W))
         outside = m & ~grown
@@ -739,11 +1045,23 @@ def build_layered_template(image, skeleton, occlusions=(), mask=None, mask_predi
                              f"{100 * outside.sum() / m.sum():.0f} % outside the foreground "
                              "mask; occlusion regions are parts of the drawing")
         m = m & inner
-        if (m & seen).sum() > 0.05 * m.sum():
-            raise ValueError(f"{name}: occlusions[{i}] overlaps an earlier occlusion region: "
-                             "regions with more than two layers are not supported yet; split "
-                             "them into non-overlapping regions")
+        partners.append([])
+        if (m & seen).sum() > 0.05 * m.sum():   # more than two layers where they overlap
+            for j, mj in enumerate(region_masks):
+                both = (m & mj).sum()
+                if not both:
+                    continue
+                iou = both / (m | mj).sum()
+                if iou > 0.8:
+                    raise ValueError(
+                        f"{name}: occlusions[{i}] overlaps an earlier occlusion region, "
+                        f"occlusions[{j}], almost entirely (IoU {iou:.2f}): each mask adds one "
+                        "layer, so give one mask per layer (Sec. 4) — e.g. the second only "
+                        "where three parts overlap — or merge the two")
+                partners[i].append(j)
+                partners[j].append(i)
         seen |= m
+        region_masks.append(m)
         comps, k = ndimage.label(m)
         if k == 0:
             raise ValueError(f"{name}: occlusions[{i}] is empty inside the foreground")
@@ -770,42 +1088,35 @@ def build_layered_template(image, skeleton, occlusions=(), mask=None, mask_predi
 
         for h in holes:
             cand = cand[~_P(h).contains_points(handles[cand])] if len(cand) else cand
+    layered = any(partners)  # some regions overlap: cells of 3+ layers (nested pockets)
+    cells = _cell_seeds(region_masks) if layered else None
     mesh = _triangulate_pslg(outer, polys, handles[cand], max_area, min_angle,
-                             region_triangles, holes)
+                             region_triangles, holes, cells)
     X, tris = mesh.X, mesh.tris
     cent = X[tris].mean(axis=1)
     from matplotlib.path import Path as MplPath
 
-    regions = []
     in_any = np.zeros(len(tris), bool)
-    pocket_tris, pocket_X = [], []
-    n_base = len(X)
+    claimed = []
     for r, P in enumerate(polys):
-        inside = MplPath(P).contains_points(cent) & ~in_any
+        # a triangle belongs to one region, except where regions overlap on purpose (then to
+        # each: one more layer per region covering it)
+        taken = np.zeros(len(tris), bool)
+        for q, sel_q in enumerate(claimed):
+            if q not in partners[r]:
+                taken[sel_q] = True
+        inside = MplPath(P).contains_points(cent) & (~taken if layered else ~in_any)
         if not inside.any():
             raise ValueError(f"{name}: occlusions[{r}] holds no triangle of the mesh (too small?)")
         in_any |= inside
-        sel = np.flatnonzero(inside)
-        loop = _loop_of(tris[sel])
-        tj_ids = cKDTree(X[loop]).query(tj_pos[r])[1] if len(tj_pos[r]) else np.zeros(0, int)
-        # pocket: copies of the region's interior vertices, outline shared
-        verts = np.unique(tris[sel])
-        interior = np.setdiff1d(verts, loop)
-        start = n_base + sum(len(p) for p in pocket_X)
-        pocket_of = {int(v): start + i for i, v in enumerate(interior)}
-        pocket_X.append(X[interior])
-        pt = tris[sel].copy()
-        for v, w in pocket_of.items():
-            pt[tris[sel] == v] = w
-        first_b = len(tris) + sum(len(p) for p in pocket_tris)
-        pocket_tris.append(pt)
-        regions.append(OcclusionRegion(
-            loop=loop, t_junctions=np.asarray(tj_ids, np.int64),
-            non_manifold=_non_manifold_edges(X, loop, skeleton),
-            tris_a=sel, tris_b=np.arange(first_b, first_b + len(sel)), pocket_of=pocket_of,
-            label=labels[r]))
-    X_all = np.concatenate([X] + pocket_X) if pocket_X else X
-    tris_all = np.concatenate([tris] + pocket_tris) if pocket_tris else tris
+        claimed.append(np.flatnonzero(inside))
+    X_all, tris_all, regions = sew_pockets(X, tris, claimed)
+    for r, reg in enumerate(regions):
+        reg.t_junctions = np.asarray(cKDTree(X[reg.loop]).query(tj_pos[r])[1]
+                                     if len(tj_pos[r]) else np.zeros(0, int), np.int64)
+        reg.non_manifold = _non_manifold_edges(X, reg.loop, skeleton)
+        reg.label = labels[r]
+    n_base = len(X)
     vertex_layer = np.zeros(len(X_all), np.int8)
     vertex_layer[n_base:] = 1
 
@@ -824,33 +1135,37 @@ def build_layered_template(image, skeleton, occlusions=(), mask=None, mask_predi
         near_t = cKDTree(cent).query(handles[missing])[1]
         tri0[missing] = near_t
         bary0[missing] = _barycentric(X, tris, handles[missing], near_t)
-    layer_of_handle = np.zeros(len(handles), np.int8)
-    for reg in regions:
-        in_reg = np.isin(tri0, reg.tris_a)
-        if not in_reg.any():
-            continue
-        hs = np.flatnonzero(in_reg)
-        if hdepth is not None and np.ptp(hdepth[hs]) > 1e-9:
-            d = np.sort(hdepth[hs])
-            gap = np.argmax(np.diff(d))
-            cut = 0.5 * (d[gap] + d[gap + 1])
-            layer_of_handle[hs[hdepth[hs] > cut]] = 1
+    # pocket_of_handle[h]: the region whose pocket holds handle h, -1 for the base layer
+    pocket_of_handle = np.full(len(handles), -1, np.int64)
+    cover, cell = None, None
+    if layered:
+        cover, cell = _triangle_cells(tris, regions)
+        hidden = _hidden_depths(base_mesh, skeleton, cover)
+        pocket_of_handle = _layered_handle_pockets(tri0, hdepth, cover, cell, hidden, name)
+    else:
+        for r, reg in enumerate(regions):
+            in_reg = np.isin(tri0, reg.tris_a)
+            if not in_reg.any():
+                continue
+            hs = np.flatnonzero(in_reg)
+            if hdepth is not None and np.ptp(hdepth[hs]) > 1e-9:
+                d = np.sort(hdepth[hs])
+                gap = np.argmax(np.diff(d))
+                cut = 0.5 * (d[gap] + d[gap + 1])
+                pocket_of_handle[hs[hdepth[hs] > cut]] = r
     dv, vid = cKDTree(X).query(handles)
-    pos_in_a = {}
-    for reg in regions:
-        for k, t in enumerate(reg.tris_a):
-            pos_in_a[int(t)] = (reg, k)
+    pos_in_a = [{int(t): k for k, t in enumerate(reg.tris_a)} for reg in regions]
     for h in range(len(handles)):
         t = int(tri0[h])
-        if layer_of_handle[h] == 1:
-            reg, k = pos_in_a[t]
-            t = int(reg.tris_b[k])
+        r = int(pocket_of_handle[h])
+        if r >= 0:
+            t = int(regions[r].tris_b[pos_in_a[r][t]])
         handle_tris[h] = t
         handle_bary[h] = bary0[h]
         if dv[h] < 1e-6:
             v = int(vid[h])
-            if layer_of_handle[h] == 1:
-                v = pos_in_a[int(tri0[h])][0].pocket_of.get(v, v)
+            if r >= 0:
+                v = regions[r].pocket_of.get(v, v)
             handle_vertices[h] = v
             tv = tris_all[handle_tris[h]]
             handle_bary[h] = (tv == v).astype(float) if (tv == v).any() else bary0[h]
@@ -927,20 +1242,36 @@ def build_layered_template(image, skeleton, occlusions=(), mask=None, mask_predi
             reg.depth = np.array([da, db])
             reg.front = "A" if da <= db else "B"
 
-    # ---- texture atlas (Sec. 5.1): keyframe on top, back layers below
-    back = np.zeros(len(tris_f), bool)
-    for reg in regions:
-        back[reg.tris_b if reg.front == "A" else reg.tris_a] = True
+    # ---- depth rank of every triangle: 0 visible in the keyframe, k the k-th hidden layer
+    rank = np.zeros(len(tris_f), np.int8)
+    if layered:
+        vd = weights @ hdepth
+        pos_in_a = [{int(t): k for k, t in enumerate(reg.tris_a)} for reg in regions]
+        for c in np.unique(cell[cover.any(axis=1)]):
+            base_c = np.flatnonzero(cell == c)
+            stack = [base_c] + [regions[r].tris_b[[pos_in_a[r][int(t)] for t in base_c]]
+                                for r in np.flatnonzero(cover[base_c[0]])]
+            d = [vd[np.unique(tris_f[tt])].mean() for tt in stack]  # mean layer depth
+            for k, i in enumerate(np.argsort(d, kind="stable")):     # ties: listed first
+                rank[stack[i]] = k
+    else:
+        for reg in regions:
+            rank[reg.tris_b if reg.front == "A" else reg.tris_a] = 1
+
+    # ---- texture atlas (Sec. 5.1): keyframe on top, the hidden layers below, one band each
+    n_bands = int(rank.max())
     tex_coords = X_f[tris_f].copy()
     texture, inpainted = img, 0.0
-    hole = np.zeros((2 * H, W), bool)                     # inpainted texels of the atlas
-    if back.any():
-        back_tex, inpainted, hole[H:] = _back_texture(
-            img, X_f, tris_f, back, handle_matrix(tris_f, len(X_f)),
+    hole = np.zeros(((1 + max(n_bands, 1)) * H, W), bool)   # inpainted texels of the atlas
+    if n_bands:
+        bands, inpainted, holes = _back_texture(
+            img, X_f, tris_f, rank, handle_matrix(tris_f, len(X_f)),
             target_skeletons, other_image, other_occlusions, other_mask, mu, inpainter,
             [o.mask_array((H, W)) for o in occlusions])
-        texture = np.concatenate([img, back_tex], axis=0)
-        tex_coords[back, :, 1] += H
+        texture = np.concatenate([img] + bands, axis=0)
+        for k in range(1, n_bands + 1):
+            tex_coords[rank == k, :, 1] += k * H
+            hole[k * H:(k + 1) * H] = holes[k - 1]
     else:
         texture = np.concatenate([img, np.zeros_like(img)], axis=0)
     return LayeredTemplate(
@@ -948,13 +1279,17 @@ def build_layered_template(image, skeleton, occlusions=(), mask=None, mask_predi
         handle_bary=handle_bary, handle_vertices=handle_vertices_f, layers=tuple(regions),
         regions=regions, vertex_layer=vertex_layer, handle_weights=weights, handle_depth=hdepth,
         texture=texture.astype(np.float32), tex_coords=tex_coords, inpainted_fraction=inpainted,
-        occlusions=occlusions, inpainted=hole)
+        occlusions=occlusions, inpainted=hole, layer_rank=rank)
 
 
-def _triangulate_pslg(outer, polys, points, max_area, min_angle, region_triangles, holes=()):
+def _triangulate_pslg(outer, polys, points, max_area, min_angle, region_triangles, holes=(),
+                      cells=None):
     """Conforming Delaunay triangulation of the foreground outline with the region outlines as
     constrained edges and ``points`` as vertices (Triangle ``pq A a``); each region gets its own
-    area bound (about ``region_triangles`` triangles)."""
+    area bound (about ``region_triangles`` triangles). Overlapping outlines cross (Triangle
+    inserts the crossings); then ``cells`` — ``(point (2,), region indices)`` seeds, one per
+    piece of the overlap pattern (:func:`_cell_seeds`) — carry the area bounds, the smallest of
+    the regions covering the piece."""
     import triangle as tr
 
     from ..mesh import MIN_PIXEL_AREA, TriMesh, _compact, _orient_positive, default_max_area
@@ -972,10 +1307,13 @@ def _triangulate_pslg(outer, polys, points, max_area, min_angle, region_triangle
     if len(holes):
         data["holes"] = np.array([_point_inside_polygon(h) for h in holes])
     if polys:
-        data["regions"] = np.array([[*_point_inside_polygon(P), r + 1,
-                                     min(max_area, max(abs(polygon_area(P)) / region_triangles,
-                                                       2.0))]
-                                    for r, P in enumerate(polys)])
+        bound = [min(max_area, max(abs(polygon_area(P)) / region_triangles, 2.0)) for P in polys]
+        if cells is None:
+            data["regions"] = np.array([[*_point_inside_polygon(P), r + 1, bound[r]]
+                                        for r, P in enumerate(polys)])
+        else:
+            data["regions"] = np.array([[*pt, c + 1, min(bound[r] for r in rs)]
+                                        for c, (pt, rs) in enumerate(cells)])
     area_str = np.format_float_positional(float(max_area), trim="-")
     angle_str = np.format_float_positional(float(min_angle), trim="-")
     opts = f"pq{angle_str}a{area_str}" + ("Aa" if polys else "") + "Q"
@@ -984,6 +1322,28 @@ def _triangulate_pslg(outer, polys, points, max_area, min_angle, region_triangle
     tris = np.asarray(out["triangles"], dtype=np.int64)
     X, tris = _compact(X, tris)
     return TriMesh(X, _orient_positive(X, tris))
+
+
+def _cell_seeds(region_masks, min_depth=1.5):
+    """One seed point per connected piece of the regions' overlap pattern (pixels covered by
+    the same set of regions): ``[(point (2,) px, region indices), …]``, the point the piece's
+    pixel farthest from its edge (pieces thinner than ``min_depth`` px are left out)."""
+    from scipy import ndimage
+
+    code = np.zeros(region_masks[0].shape, np.int64)
+    for r, m in enumerate(region_masks):
+        code |= m.astype(np.int64) << r
+    out = []
+    for c in np.unique(code[code > 0]):
+        comps, k = ndimage.label(code == c)
+        for i in range(1, k + 1):
+            dist = ndimage.distance_transform_edt(comps == i)
+            if dist.max() < min_depth:
+                continue
+            y, x = np.unravel_index(np.argmax(dist), dist.shape)
+            out.append((np.array([x, y], float),
+                        tuple(r for r in range(len(region_masks)) if (c >> r) & 1)))
+    return out
 
 
 def _deformation_energy(X, tris, B, target_skeletons, mu, max_iter=None):
@@ -1034,26 +1394,26 @@ def _telea(rgba, hole):
     return res
 
 
-def _back_texture(img, X, tris, back, B, target_skeletons, other_image,
+def _back_texture(img, X, tris, rank, B, target_skeletons, other_image,
                   other_occlusions, other_mask, mu, inpainter, own_occ_masks):
-    """Texture of the back layers in the keyframe's frame (Sec. 5.1).
+    """Texture of the hidden layers in the keyframe's frame (Sec. 5.1), one band per depth rank.
 
-    Where a back-layer triangle, deformed into the other key's pose, lands fully on the other
-    key's foreground and outside its occlusion regions, its texture comes from the other key;
-    the rest of the back layers' area is inpainted. Returns (texture (H, W, 4), inpainted
-    fraction of the back-layer area, hole (H, W) bool: the inpainted pixels)."""
+    Where a hidden triangle, deformed into the other key's pose, lands fully on the other key's
+    foreground and outside its occlusion regions, its texture comes from the other key; the
+    rest of the hidden layers' area is inpainted. The ``k``-th hidden layer (``rank == k``)
+    covers the pixels of at least ``k`` of this key's occlusion masks (with two layers, their
+    union). Returns (textures: list of (H, W, 4) float32 per rank 1, 2, …, inpainted fraction
+    of the hidden layers' area, holes: list of (H, W) bool, the inpainted pixels per rank)."""
     from scipy import ndimage
 
     from ..render import warp_texture
     from .deform import SymmetricDirichletDeformer, deform_through
 
     H, W = img.shape[:2]
-    covered = np.zeros((H, W), bool)
+    count = np.zeros((H, W), np.int64)
     for m in own_occ_masks:
-        covered |= m
-    # the back layers cover the occlusion regions of this key (in rest position)
-    hole = covered.copy()
-    tex = img.copy()
+        count += m
+    x = None
     if other_image is not None and target_skeletons:
         other = as_rgba_float(other_image, "other_image")
         omask = other_mask if other_mask is not None else classical_foreground_mask(other)
@@ -1062,18 +1422,27 @@ def _back_texture(img, X, tris, back, B, target_skeletons, other_image,
             occ |= o.mask_array((H, W))
         ok_px = ndimage.binary_erosion(omask, iterations=1) & ~ndimage.binary_dilation(occ, iterations=2)
         x = deform_through(SymmetricDirichletDeformer(X, tris, B, mu=mu), target_skeletons).x
-        bt = tris[back]
-        ij = np.clip(np.round(x[bt][..., ::-1]).astype(int), 0, [H - 1, W - 1])
-        good = ok_px[ij[..., 0], ij[..., 1]].all(axis=1)
-        if good.any():
-            # the other key pulled back onto the rest positions of the good triangles
-            pulled = warp_texture(other, x, X, bt[good], (H, W))
-            got = pulled[..., 3] > 0.5
-            tex = np.where((got & covered)[..., None], pulled, tex)
-            hole &= ~got
-    frac = float(hole.sum() / max(covered.sum(), 1))
-    tex = (inpainter or _telea)(tex, hole) if hole.any() else tex
-    return tex.astype(np.float32), frac, hole
+    texs, holes, n_hole, n_cov = [], [], 0, 0
+    for k in range(1, int(rank.max()) + 1):
+        # the k-th hidden layer covers k occlusion regions of this key (in rest position)
+        covered = count >= k
+        hole = covered.copy()
+        tex = img.copy()
+        if x is not None:
+            bt = tris[rank == k]
+            ij = np.clip(np.round(x[bt][..., ::-1]).astype(int), 0, [H - 1, W - 1])
+            good = ok_px[ij[..., 0], ij[..., 1]].all(axis=1)
+            if good.any():
+                # the other key pulled back onto the rest positions of the good triangles
+                pulled = warp_texture(other, x, X, bt[good], (H, W))
+                got = pulled[..., 3] > 0.5
+                tex = np.where((got & covered)[..., None], pulled, tex)
+                hole &= ~got
+        n_hole, n_cov = n_hole + hole.sum(), n_cov + covered.sum()
+        tex = (inpainter or _telea)(tex, hole) if hole.any() else tex
+        texs.append(tex.astype(np.float32))
+        holes.append(hole)
+    return texs, float(n_hole / max(n_cov, 1)), holes
 
 
 # ------------------------------------------------------------------ suggestions, warnings
