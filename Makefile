@@ -23,7 +23,7 @@ help:
 	@echo "make test       set up .venv and run the whole suite (unit tests, executed lessons, browser test)"
 	@echo "make reproduce  execute every lesson headless, write figures to reports/"
 	@echo "make bench      run the benchmarks in benchmarks/"
-	@echo "make motion-model  retrain the shipped motion checkpoints in data/motion/ (~125 min, 2 cores)"
+	@echo "make motion-model  retrain the shipped motion checkpoints in data/motion/ (~135 min, 2 cores)"
 
 # (Re)install whenever pyproject.toml changes.
 $(STAMP): pyproject.toml
@@ -94,13 +94,14 @@ motion-evaluator: $(STAMP)
 
 motion-model: $(STAMP) motion-evaluator
 	mkdir -p $(MOTION_RUNS) data/motion
-	$(MOTION_TRAIN) --stage base --steps 5000 --out $(MOTION_RUNS)/base.pt
+	$(MOTION_TRAIN) --stage base --steps 10000 --out $(MOTION_RUNS)/base.pt
 	$(MOTION_TRAIN) --stage control --steps 6000 --base-ckpt $(MOTION_RUNS)/base.pt \
 		--out $(MOTION_RUNS)/control.pt --export data/motion/sketch2anim_control.pt
 	$(MOTION_TRAIN) --stage control --single-controlnet --steps 6000 \
 		--base-ckpt $(MOTION_RUNS)/base.pt --out $(MOTION_RUNS)/single_controlnet.pt \
 		--export data/motion/sketch2anim_single_controlnet.pt
-	$(MOTION_TRAIN) --stage align --steps 5000 --base-ckpt $(MOTION_RUNS)/control.pt \
+	$(MOTION_TRAIN) --stage align --steps 5000 --single-joint 0.25 \
+		--base-ckpt $(MOTION_RUNS)/control.pt \
 		--out $(MOTION_RUNS)/align.pt --export data/motion/sketch2anim_control.pt
 	$(PY) -m physlab.motion.baselines train-lifter --steps 3000 --num-threads 2 \
 		--out $(MOTION_RUNS)/lifter.pt --export data/motion/sketch_lifter.pt

@@ -34,9 +34,10 @@ backpropagation through the network; ``guidance_space="network"`` is the paper's
 3.5x slower, as smooth); the combined action ``a_{p+q}`` is the mean of the two action
 embeddings (no new text to encode); and the guidance also pulls the gap towards its linear
 initialisation (:data:`INIT_WEIGHT`), because the shipped model does not reconstruct what it
-inverts (invert + denoise without guidance: 0.34–0.44 m from the input; part of that is the
-schedule, whose first levels are nearly noise-free so an x̂₀-network's ε̂ amplifies its
-error ~24x: an *exact* Gaussian x̂₀-model round-trips only to 0.63 with these settings).
+inverts (invert + denoise without guidance: 0.34–0.44 m from the input with the 5000-step
+base; part of that is the schedule, whose first levels are nearly noise-free so an
+x̂₀-network's ε̂ amplifies its error ~24x: an *exact* Gaussian x̂₀-model round-trips only to
+0.63 with these settings).
 """
 from __future__ import annotations
 
@@ -49,7 +50,8 @@ from .features import _rotate_y, canonicalize, root_heading
 from .skeleton import JOINT_NAMES
 
 __all__ = ["BLEND_METHODS", "TRANSITION", "BlendResult", "place_after", "blend",
-           "junction_step_ratio", "BLEND_STEPS", "BLEND_GUIDANCE"]
+           "junction_step_ratio", "junction_acceleration_ratio", "BLEND_STEPS",
+           "BLEND_GUIDANCE"]
 
 #: Transition methods of :func:`blend`: naive concatenation (no gap), the model-free
 #: baselines, and Sketch2Anim's inversion-based blending.
@@ -366,6 +368,23 @@ def _inversion_blend(a, b, l, actions, generator, seed, steps, guidance, guidanc
     return j, slice(len(a) - ca, len(a) + l + cb)
 
 
+def _check_junction(joints, window, clips, margin):
+    """``(x, start, stop)`` of a junction's arguments (:func:`junction_step_ratio`), with
+    ``margin`` unchanged frames required on each side of ``window``."""
+    x = _check_clip(joints, "joints", 2)
+    if not isinstance(window, slice) or window.start is None or window.stop is None:
+        raise ValueError(f"window must be a slice with a start and a stop (e.g. "
+                         f"BlendResult.window), got {window!r}")
+    if len(clips) != 2:
+        raise ValueError(f"clips must be the two clips the junction joins, got {len(clips)}")
+    start, stop = window.start, window.stop
+    if not margin <= start <= stop <= len(x) - margin:
+        side = "a frame" if margin == 1 else f"{margin} frames"
+        raise ValueError(f"window must lie inside the motion with {side} on each side, got "
+                         f"[{start}, {stop}) for {len(x)} frames")
+    return x, start, stop
+
+
 def junction_step_ratio(joints, window, clips, reference="median"):
     """How much a joined motion jumps at a junction: the largest frame-to-frame joint step
     into, inside and out of the changed frames ``window`` (a slice of ``joints``; an empty
@@ -376,24 +395,22 @@ def junction_step_ratio(joints, window, clips, reference="median"):
       a clip that barely moves (a bow) makes this small, and the walk it follows then
       "jumps" by its own stride: real phase changes score 13 on held-out mocap;
     * ``"local"`` — the largest step of each clip's second (20 frames) next to the
-      junction: > 1 means the junction moves faster than either clip does there.
+      junction: > 1 means the junction moves faster than either clip does there;
+    * ``"straight"`` — the largest joint step of a straight, constant-speed join from the
+      frame before the changed frames to the frame after them, the least any join of that
+      length needs: when the clips barely move next to the junction but meet in different
+      poses (a bow, then a wave that starts with the hand up), "local" counts the move the
+      junction must make as a seam; a smooth ease-in-out scores π/2 ≈ 1.57 on "straight",
+      a jump far more.
 
     joints : (T, 22, 3) the joined motion (m); window : slice (:attr:`BlendResult.window`);
     clips : the two (T_i, 22, 3) clips as they were before joining (the first ends at the
     junction, the second starts there). Returns float.
     """
-    x = _check_clip(joints, "joints", 2)
-    if not isinstance(window, slice) or window.start is None or window.stop is None:
-        raise ValueError(f"window must be a slice with a start and a stop (e.g. "
-                         f"BlendResult.window), got {window!r}")
-    if len(clips) != 2:
-        raise ValueError(f"clips must be the two clips the junction joins, got {len(clips)}")
-    start, stop = window.start, window.stop
-    if not 1 <= start <= stop <= len(x) - 1:
-        raise ValueError(f"window must lie inside the motion with a frame on each side, got "
-                         f"[{start}, {stop}) for {len(x)} frames")
-    if reference not in ("median", "local"):
-        raise ValueError(f"reference must be 'median' or 'local', got {reference!r}")
+    x, start, stop = _check_junction(joints, window, clips, 1)
+    if reference not in ("median", "local", "straight"):
+        raise ValueError(f"reference must be 'median', 'local' or 'straight', got "
+                         f"{reference!r}")
 
     def steps(c, name):
         return np.linalg.norm(np.diff(_check_clip(c, name, 2), axis=0), axis=-1).max(axis=-1)
@@ -401,7 +418,37 @@ def junction_step_ratio(joints, window, clips, reference="median"):
     step = np.linalg.norm(np.diff(x, axis=0), axis=-1).max(axis=-1)            # (T-1,)
     if reference == "median":
         ref = np.median(np.concatenate([steps(c, f"clips[{i}]") for i, c in enumerate(clips)]))
-    else:
+    elif reference == "local":
         ref = max(steps(np.asarray(clips[0])[-21:], "clips[0]").max(),
                   steps(np.asarray(clips[1])[:21], "clips[1]").max())
+    elif stop == start:
+        raise ValueError("reference='straight' needs changed frames: a plain cut's window is "
+                         "empty (its straight join is the jump itself); use 'median' or "
+                         "'local'")
+    else:                          # frames start-1 and stop are unchanged: span them evenly
+        ref = np.linalg.norm(x[stop] - x[start - 1], axis=-1).max() / (stop - start + 1)
     return float(step[start - 1:max(stop, start)].max() / max(ref, 1e-9))
+
+
+def junction_acceleration_ratio(joints, window, clips):
+    """Whether a junction shows as a seam: the largest joint acceleration
+    ``‖x_{t+1} − 2 x_t + x_{t−1}‖`` (m/frame²) over the changed frames ``window`` and the two
+    frames on each side of it, divided by the largest acceleration of the two clips within
+    their second (20 frames) next to the junction. A seam is a change of velocity the clips
+    do not make: a plain cut scores 4–110 on the example storyboard, a linear blend's kinks
+    3.5–5 where a still bow meets a wave, the inversion blend 0.6–1.8 (seeds 0–3). Unlike
+    :func:`junction_step_ratio`'s ``"local"`` reference, a fast but smooth move between two
+    still clips in different poses is not counted.
+
+    joints, window, clips : as :func:`junction_step_ratio` (a plain cut's empty window
+    ``[k, k)`` measures the accelerations around frame k). Returns float.
+    """
+    x, start, stop = _check_junction(joints, window, clips, 2)
+
+    def acc(c, name):
+        c = _check_clip(c, name, 3)
+        return np.linalg.norm(c[2:] - 2 * c[1:-1] + c[:-2], axis=-1).max(axis=-1)
+
+    ref = max(acc(np.asarray(clips[0])[-21:], "clips[0]").max(),
+              acc(np.asarray(clips[1])[:21], "clips[1]").max())
+    return float(acc(x[start - 2:stop + 2], "joints").max() / max(ref, 1e-9))

@@ -41,6 +41,11 @@ CONTACT_SPEED = 2.0
 #: 0.21 / 0.72, 0.23 / 0.27, 0.18 / 0.31; keep 0 at 2.5 m/s and 7 cm 0.12 / 1.75, 0.20 /
 #: 0.83, 0.15 / 1.15. A harder lock trades sliding for jerk where the foot is stopped.
 LOCK_KEEP = 0.15
+#: Largest rate (m/frame) at which :func:`lock_feet`'s offset may change outside a contact run,
+#: on top of the toe's own motion. Two contact runs a frame apart (a low shuffling foot, just
+#: under :data:`CONTACT_SPEED`) otherwise leave the foot one frame to cover what both locks
+#: held back: a guided slow walk jumped 0.22 m (6x its median step) where a stroke ended.
+FADE_STEP = 0.05
 #: (hip, knee, ankle, toe) joint indices of the left and right leg.
 LEG_CHAINS = ((1, 4, 7, 10), (2, 5, 8, 11))
 
@@ -208,7 +213,9 @@ def lock_feet(joints, contacts=None, pinned=None, blend=3, keep=LOCK_KEEP, fps=2
     offset is zero; ``keep = 0`` holds it at the median of its positions; the height is
     kept), the foot moves with it rigidly and the knee follows by :func:`two_bone_ik` from
     the unmoved hip, so every bone keeps its length. Over ``blend`` frames before and after a
-    run the offset fades out linearly, so the foot eases into and out of its lock.
+    run the offset fades out linearly, so the foot eases into and out of its lock; between
+    runs close together it ramps straight from one to the next, at most :data:`FADE_STEP`
+    per frame (longer ramps take frames from the runs' ends).
 
     Parameters
     ----------
@@ -216,8 +223,8 @@ def lock_feet(joints, contacts=None, pinned=None, blend=3, keep=LOCK_KEEP, fps=2
     contacts : None (:func:`foot_contacts` of the clip) or a (T, 2) bool array.
     pinned : None or a (T, 2) bool array of frames whose toe must not move (e.g. frames with
         a trajectory condition for that foot, or the keypose frame): they are never locked,
-        and the offset ramps in linearly over ``blend + 1`` frames away from them, so no
-        step is added next to a condition.
+        and the offset ramps in linearly from them (at most :data:`FADE_STEP` per frame, over
+        at least ``blend + 1`` frames), so no jump is added next to a condition.
     blend : int >= 0, fade length in frames.
     keep : float in [0, 1], the fraction of a contact's slide that is kept (0 = a hard lock,
         1 = unchanged).
@@ -246,26 +253,21 @@ def lock_feet(joints, contacts=None, pinned=None, blend=3, keep=LOCK_KEEP, fps=2
     blend = int(blend)
     out = x.copy()
     for k, (hip, knee, ankle, toe) in enumerate(LEG_CHAINS):
-        delta = np.zeros((T, 3))
-        weight = np.zeros(T)                            # how near the fade is to its run
-        for a, b in _runs(c[:, k] & ~pin[:, k]):
+        runs = _runs(c[:, k] & ~pin[:, k])
+        if not runs:
+            continue
+        target = np.zeros((T, 3))
+        anchored = np.zeros(T, dtype=bool)
+        for a, b in runs:
             p = x[a:b, toe][:, [0, 2]]                                     # (n, 2) xz
             if keep == 0:
                 q = np.median(p, axis=0)[None]
             else:                      # the slide scaled by `keep`, centred on the original
                 q = p[:1] + keep * (p - p[:1])
                 q = q - (q - p).mean(axis=0)
-            delta[a:b, [0, 2]] = q - p
-            weight[a:b] = 1.0
-            for i in range(1, blend + 1):
-                f = 1.0 - i / (blend + 1.0)
-                for t, edge in ((a - i, a), (b - 1 + i, b - 1)):
-                    if 0 <= t < T and f > weight[t]:
-                        weight[t] = f
-                        delta[t] = f * delta[edge]
-        if pin[:, k].any():            # no jump next to a pinned frame: ramp in from it
-            dist = np.abs(np.arange(T)[:, None] - np.flatnonzero(pin[:, k])[None]).min(axis=1)
-            delta *= np.minimum(1.0, dist / (blend + 1.0))[:, None]
+            target[a:b, [0, 2]] = q - p
+            anchored[a:b] = True
+        delta = _fade(target, anchored, runs, blend, pin[:, k])
         moved = np.flatnonzero(np.any(delta != 0.0, axis=1))
         if not len(moved):
             continue
@@ -277,6 +279,44 @@ def lock_feet(joints, contacts=None, pinned=None, blend=3, keep=LOCK_KEEP, fps=2
         out[moved, toe] = new_ankle + (x[moved, toe] - x[moved, ankle])
         out[moved, ankle] = new_ankle
     return out
+
+
+def _fade(target, anchored, runs, blend, pinned):
+    """The lock offsets of :func:`lock_feet`: ``target`` at the ``anchored`` (contact) frames,
+    zero at the ``pinned`` frames and ``blend + 1`` frames away from every run, linear in
+    between — so two runs close together are joined by a straight ramp instead of a jump.
+    Where a ramp would move the toe more than :data:`FADE_STEP` per frame, the runs give up
+    their end frames to it until it does not (a foot that shuffles between two plants is not
+    held through both; a lock next to a trajectory condition starts later)."""
+    T = len(target)
+    anchored = anchored.copy()
+    near = np.zeros(T + 2 * (blend + 1), dtype=bool)                  # frames -(blend+1)..
+    for a, b in runs:
+        near[a + 1:b + 2 * blend + 1] = True          # frames a - blend .. b - 1 + blend
+    zero_t = np.flatnonzero(~near) - (blend + 1)                       # zero-offset anchors
+    pin_t = np.flatnonzero(pinned)
+    zero_t = np.union1d(zero_t, pin_t)
+    if len(pin_t):                     # ramp in over at least blend + 1 frames from a pin
+        dist = np.abs(np.arange(T)[:, None] - pin_t[None]).min(axis=1)
+        anchored &= dist > blend
+    ts = np.arange(T)
+    while True:
+        run_t = np.flatnonzero(anchored)
+        t_all = np.concatenate([run_t, zero_t])
+        order = np.argsort(t_all, kind="stable")
+        t_all = t_all[order]
+        v_all = np.concatenate([target[run_t], np.zeros((len(zero_t), 3))])[order]
+        delta = np.stack([np.interp(ts, t_all, v_all[:, d]) for d in range(3)], axis=1)
+        rate = np.linalg.norm(np.diff(delta, axis=0), axis=1)                # (T-1,)
+        ramp = ~(anchored[:-1] & anchored[1:])                   # steps outside the runs
+        bad = np.flatnonzero((rate > FADE_STEP + 1e-12) & ramp)
+        if not len(bad):
+            return delta
+        for s in bad:                  # free the run frames at the ends of a too-steep ramp
+            i = np.searchsorted(t_all, s, side="right")          # t_all[i-1] <= s < t_all[i]
+            for j in (i - 1, i):
+                if 0 <= j < len(t_all) and 0 <= t_all[j] < T and anchored[t_all[j]]:
+                    anchored[t_all[j]] = False
 
 
 def constrain_body(joints, lengths=None, floor=0.0, lock=True, pinned=None):

@@ -121,6 +121,13 @@ PATH_FREQUENCIES = 6
 #: skating 0.21 / 0.22 / 0.23 / 0.24 / 0.26, largest condition-edge step ratio 3.2 / 3.2 /
 #: 3.1 / 3.3 / 3.6.
 GUIDANCE_BONES = 10.0
+#: Weight λ_e and bound c_e of the condition-edge term of the x̂₀ guidance
+#: (:meth:`Generator._guide`): at each frame where a (3D or drawn) trajectory starts or ends,
+#: every joint's step beyond ``c_e`` times the pre-guidance clip's median step (of the largest
+#: joint step per frame) is penalised, ``λ_e · Σ_j (‖Δx_{k,j}‖ − c_e s̃)₊²`` (m²). Issue 12
+#: asks for no joint step above 3× the median there; the guidance otherwise moves a fast foot
+#: swing of the network's onto the frame where a foot stroke ends (a slow walk: 5.7×).
+GUIDANCE_EDGES, EDGE_STEP = 10.0, 2.5
 
 #: Default DDIM steps of :meth:`Generator.__call__` / :func:`generate`. Sketch2Anim samples
 #: with 50; on 64 held-out windows (Cross protocol, `python -m physlab.motion.evaluate
@@ -151,6 +158,17 @@ def _minimise(closure, params, iters, optimizer, lr=0.01):
     for _ in range(int(iters)):
         closure()
         opt.step()
+
+
+def _condition_edges(cond, sketch):
+    """(k,) long tensor of the steps ``i -> i + 1`` where a 3D or drawn trajectory condition
+    starts or ends (any of the six joints; :func:`~physlab.motion.metrics.boundary_step_ratio`
+    measures the same steps)."""
+    masks = [d["traj_mask"][0].any(-1) for d in (cond, sketch) if d is not None]
+    if not masks:
+        return torch.zeros(0, dtype=torch.long)
+    m = torch.stack(masks).any(0)                                            # (N,)
+    return torch.nonzero(m[1:] != m[:-1]).flatten()
 
 
 def _progress(items, show, desc):
@@ -321,8 +339,10 @@ class Generator:
         joints, metres²; the proximity term, the mean squared displacement of the joints, keeps
         the motion near the network's whatever the feature scaling; the bone term,
         :data:`GUIDANCE_BONES`, keeps each bone at the keypose's length ``L_j``, or at its
-        median over the pre-guidance clip), then the network output is rewritten for the
-        corrected x̂₀ so the sampler's step uses it. A ``sketch`` (2D conditions, see
+        median over the pre-guidance clip; the edge term, :data:`GUIDANCE_EDGES`, keeps every
+        joint's step where a trajectory starts or ends below :data:`EDGE_STEP` times the
+        clip's median step), then the network output is rewritten for the corrected x̂₀ so
+        the sampler's step uses it. A ``sketch`` (2D conditions, see
         :func:`~physlab.motion.guidance.sketch_losses`) adds ``G`` of Eq. (16) and its keypose
         term. ``loss_fn(joints) -> scalar`` (joints ``(1, N, 22, 3)`` m, canonical frame) adds
         any other term to G (motion blending's ``G_m``, supp. Eq. (18)).
@@ -364,6 +384,12 @@ class Generator:
 
         target_tr, target_key = joints_target if joints_target is not None else (None, None)
         has_traj = cond is not None and bool(cond["traj_mask"].any())
+        edges = _condition_edges(cond, sketch)
+        step_cap = EDGE_STEP * (ref_joints[0, 1:] - ref_joints[0, :-1]).norm(dim=-1).max(
+            dim=-1).values.median()
+
+        def steps(j):                                                        # (k, 22) m
+            return (j[0, edges + 1] - j[0, edges]).norm(dim=-1)
 
         smooth = self.denoiser.smooth       # keep the correction in the model's output basis
 
@@ -374,6 +400,8 @@ class Generator:
             g = proximity * ((joints - ref_joints) ** 2).sum(-1).mean()
             if GUIDANCE_BONES:                          # keep the bones: re-plan, don't drag
                 g = g + GUIDANCE_BONES * ((bones(joints) - bone_target) ** 2).mean()
+            if GUIDANCE_EDGES and len(edges):           # no jump where a stroke starts / ends
+                g = g + GUIDANCE_EDGES * ((steps(joints) - step_cap).clamp(min=0) ** 2).sum()
             if has_traj:
                 g = g + control_losses(z, target_tr, cond, mean, std, rep)[0]  # Eq. (6)
             if has_key:

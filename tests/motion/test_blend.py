@@ -6,6 +6,7 @@ import pytest
 import torch
 
 from physlab.motion.blend import (BLEND_METHODS, BlendResult, blend, junction_step_ratio,
+                                  junction_acceleration_ratio,
                                   place_after)
 from physlab.motion.features import _rotate_y, root_heading
 from physlab.motion.metrics import bone_length_variation, floor_penetration, jerk
@@ -59,6 +60,42 @@ def test_concat_and_linear_on_a_steady_walk_have_no_seam():
     cut = blend(a, _walk(start=(3.0, -2.0)), method="concat")
     assert cut.joints.shape == (80, 22, 3) and cut.window == slice(40, 40)
     assert junction_step_ratio(cut.joints, cut.window, [a, b]) > 50   # a 3.6 m pop
+
+
+def test_junction_step_ratio_references_on_a_move_between_still_poses():
+    """Two still clips in different poses joined over 10 frames: every 'local' ratio is huge
+    (the clips do not move), 'straight' is 1 for a constant-speed join and π/2 (sampled:
+    sin(π/22) · 11) for a cosine ease-in-out; a plain cut has no straight join."""
+    rng = np.random.default_rng(0)
+    A, B = rng.normal(size=(22, 3)), rng.normal(size=(22, 3))
+    n = 10
+    for s, expected in ((np.arange(1, n + 1) / (n + 1), 1.0),
+                        ((1 - np.cos(np.pi * np.arange(1, n + 1) / (n + 1))) / 2,
+                         np.sin(np.pi / (2 * (n + 1))) * (n + 1))):
+        join = A + s[:, None, None] * (B - A)
+        x = np.concatenate([np.repeat(A[None], 10, 0), join, np.repeat(B[None], 10, 0)])
+        w, clips = slice(10, 20), [np.repeat(A[None], 10, 0), np.repeat(B[None], 10, 0)]
+        assert junction_step_ratio(x, w, clips, "straight") == pytest.approx(expected)
+        assert junction_step_ratio(x, w, clips, "local") > 1e6
+    assert expected == pytest.approx(np.pi / 2, rel=0.01)
+    with pytest.raises(ValueError, match="straight"):
+        junction_step_ratio(x, slice(20, 20), clips, "straight")
+
+
+def test_junction_acceleration_ratio_sees_a_change_of_velocity_only():
+    """A swaying clip cut into two and joined back unchanged has no seam (ratio 1 up to the
+    sampling of the sine's peak); the same cut with the second half shifted 5 cm pops (the
+    jump against the sway's peak acceleration A ω² = 0.1 · (2π/20)² m/frame²: 3.6)."""
+    t = np.arange(80)[:, None, None]
+    x = 0.1 * np.sin(2 * np.pi * t / 20 + np.arange(22)[None, :, None]) * np.ones((1, 1, 3))
+    a, b = x[:40], x[40:]
+    r = junction_acceleration_ratio(x, slice(40, 40), [a, b])
+    assert r == pytest.approx(1.0, abs=0.05)
+    y = x.copy()
+    y[40:] += [0.05, 0.0, 0.0]
+    assert junction_acceleration_ratio(y, slice(40, 40), [a, b + [0.05, 0, 0]]) > 3   # 3.6
+    with pytest.raises(ValueError, match="2 frames on each side"):
+        junction_acceleration_ratio(x, slice(1, 5), [a, b])
 
 
 @pytest.mark.parametrize("method", ["slerp", "squad"])

@@ -5,7 +5,8 @@ import pytest
 
 from physlab.motion import metrics as M
 from physlab.motion.body import (LEG_CHAINS, clip_bone_lengths, constrain_body, foot_contacts,
-                                 ground_feet, lock_feet, rigid_bones, two_bone_ik)
+                                 ground_feet, lock_feet, rigid_bones, two_bone_ik,
+                                 FADE_STEP)
 from physlab.motion.skeleton import FOOT_JOINTS, PARENTS, bone_lengths
 
 
@@ -145,10 +146,19 @@ def test_lock_feet_stops_a_sliding_foot_and_keeps_the_bones():
     pinned[:5, 0] = True                                          # a trajectory condition
     z = lock_feet(x, pinned=pinned, keep=0.0)
     np.testing.assert_array_equal(z[:5], x[:5])
-    assert np.ptp(z[9:, 10, 2]) < 1e-9                            # locked 4 frames on
-    offset = 12 * 0.03                                  # frame 5 to the median of 5..29
+    # the lock (offset 12 * 0.03 m at frame 5 to the median of 5..29) ramps in from the
+    # pinned frame 4 at FADE_STEP per frame: from frame 9 on, (17 - 9) * 0.03 <= 5 * 0.05
+    assert np.ptp(z[9:, 10, 2]) < 1e-9 and np.ptp(z[8:, 10, 2]) > 0.01
     steps = np.abs(np.diff(z[:, 10, 2]))
-    assert steps.max() == pytest.approx(0.03 + offset / 4)       # ramped in, no jump
+    assert steps.max() <= 0.03 + FADE_STEP + 1e-9                 # ramped in, no jump
+    # two plants one frame apart (a shuffling foot): the locks hand over along a ramp, not
+    # in one frame
+    c2 = np.zeros((len(x), 2), bool)
+    c2[:12, 0] = c2[13:, 0] = True
+    hop = lock_feet(x, contacts=c2, keep=0.0)
+    d = np.linalg.norm(np.diff(hop[:, 10] - x[:, 10], axis=0), axis=-1)
+    assert d.max() <= FADE_STEP + 1e-9, d.max()          # the old fade: 0.36 m in one frame
+    np.testing.assert_allclose(bone_lengths(hop), bone_lengths(x), atol=1e-9)
     blend = lock_feet(x, contacts=np.r_[np.zeros(10), np.ones(10), np.zeros(10)].astype(bool)
                       [:, None].repeat(2, 1) & [True, False], blend=3, keep=0.0)
     np.testing.assert_array_equal(blend[:6], x[:6])               # before the fade

@@ -242,6 +242,33 @@ def test_inference_guidance_pulls_the_motion_onto_the_conditions(gen, text):
     assert np.array_equal(a, gen(text, steps=STEPS, guidance_final=20, inference_guidance=3))
 
 
+def test_guidance_does_not_jump_where_a_stroke_ends(gen, text, monkeypatch):
+    """The edge term of the x̂₀ guidance (``GUIDANCE_EDGES``): a pelvis stroke over the first
+    20 frames that lies 1 m beside the model's own path pulls those frames over; without the
+    term the pelvis then jumps back at frame 20 (3.4x the median step on the smoke model; the
+    low-pass output basis already spreads it), with it every joint's step there stays below
+    ``EDGE_STEP`` times the clip's median step (1.3x), and the stroke is still followed."""
+    import physlab.motion.sampling as S
+    from physlab.motion.metrics import boundary_step_ratio
+
+    own = gen(text, steps=STEPS, guidance_final=0, body_constraints=False)
+    target = own[:20, 0] + [1.0, 0.0, 0.0]
+    kw = {"trajectories_3d": {"pelvis": target}, "steps": STEPS, "body_constraints": False,
+          "guidance_final": 40}
+    mask = np.zeros((40, 6), bool)
+    mask[:20, 0] = True
+    assert S._condition_edges({"traj_mask": torch.tensor(mask)[None]}, None).tolist() == [19]
+    late = {"traj_mask": torch.tensor(np.roll(mask, 25, axis=0))[None]}   # 25..39 and 0..4
+    assert S._condition_edges(late, {"traj_mask": torch.tensor(mask)[None]}).tolist() == [19, 24]
+    with_term = gen(text, **kw)
+    monkeypatch.setattr(S, "GUIDANCE_EDGES", 0.0)
+    without = gen(text, **kw)
+    r_with, r_without = (boundary_step_ratio(j, mask) for j in (with_term, without))
+    assert r_with < 0.6 * r_without and r_with < S.EDGE_STEP, (r_with, r_without)
+    err = np.linalg.norm(with_term[:20, 0] - target, axis=-1).mean()
+    assert err < 0.25 * np.linalg.norm(own[:20, 0] - target, axis=-1).mean(), err
+
+
 @pytest.mark.parametrize("kw, exc, match", BAD)
 def test_bad_inputs_raise_helpful_errors(gen, text, kw, exc, match):
     kw = {"action": text, **kw}
