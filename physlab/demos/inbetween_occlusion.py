@@ -8,6 +8,7 @@ Algorithm 1, Figs. 2d, 5–8).
 """
 from __future__ import annotations
 
+import matplotlib.colors
 import numpy as np
 
 from physlab.inbetween import characters
@@ -21,7 +22,7 @@ from physlab.viz.plots import new_figure
 __all__ = ["occluded_pair", "tear_sequences", "tear_figure", "template_figure",
            "switching_rule_figure", "shifted_t_junctions", "t_junction_demo",
            "wrong_topology", "wrong_topology_figure",
-           "comparison_figure", "VISIBLE", "HIDDEN"]
+           "comparison_figure", "three_layers", "three_layer_figure", "VISIBLE", "HIDDEN"]
 
 #: Outline colours of Figs. 6 and 8: visible occlusion contours blue, hidden ones red.
 VISIBLE, HIDDEN = "tab:blue", "tab:red"
@@ -303,4 +304,67 @@ def comparison_figure(rows, truth, labels, t):
                 ax.set_ylabel(lab, fontsize=8)
             if i == 0:
                 ax.set_title(f"t = {t[j]:.2f}", fontsize=8)
+    return fig
+
+
+#: Colours of the layer ranks in :func:`three_layer_figure`: visible, first and second hidden.
+RANK_COLORS = ("0.8", "tab:purple", "tab:orange")
+
+
+def three_layers(size=160, n=5):
+    """The three-layer pair ``arms_around`` (:func:`~physlab.inbetween.characters.
+    occlusion_benchmark_three_layers`) in-betweened three ways: with its masks one per layer
+    (three layers where the forearms cross), with the occluded pixels as one region per overlap
+    (:func:`~physlab.inbetween.characters.character_occlusions`: two layers) and as one sheet.
+
+    Returns ``(pair, truth (n, H, W, 4), {label: InbetweenResult})``."""
+    import warnings
+
+    from physlab.inbetween.pipeline import inbetween
+
+    (pair,) = characters.occlusion_benchmark_three_layers(size)
+    k0, k1 = pair.keyframes()
+    o0, o1 = pair.occlusions()
+    anim = pair.animation(n)
+    truth = pair.ground_truth(np.linspace(0, 1, n))
+    two = characters.character_occlusions(pair.skeleton1, size)
+    runs = {"three layers": dict(occlusions0=o0, occlusions1=o1),
+            "two layers": dict(occlusions0=o0, occlusions1=two),
+            "one sheet": {}}
+    out = {}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")           # the one sheet warns about the overlap
+        for label, kw in runs.items():
+            out[label] = inbetween(k0, k1, pair.skeleton0, pair.skeleton1, n, anim, **kw)
+    return pair, truth, out
+
+
+def three_layer_figure(pair, truth, results):
+    """Key 1's layered template coloured by layer rank (where it lies under other layers:
+    0 visible, 1 first hidden, 2 second hidden; Sec. 5.1) next to the in-between at t = 0.5
+    of each run of :func:`three_layers` and the truth, cropped to the arms."""
+    tpl = results["three layers"].templates[1]
+    mid = len(truth) // 2
+    alpha = np.asarray(truth)[..., 3] > 0
+    x0, x1, y1, y0 = _box(alpha[mid:mid + 1], margin=2)
+    y0, y1 = y0 + int(0.2 * (y1 - y0)), y0 + int(0.6 * (y1 - y0))      # shoulders to hips
+    fig, axes = _grid(1, 2 + len(results), 2.2, 1.9)
+    axes = axes[0]
+    ax = axes[0]
+    ax.imshow(over_white(tpl.image))
+    for rank in range(1, tpl.n_layers):
+        sel = tpl.tris[tpl.layer_rank == rank]
+        ax.tripcolor(tpl.X[:, 0], tpl.X[:, 1], sel, facecolors=np.ones(len(sel)),
+                     cmap=matplotlib.colors.ListedColormap([RANK_COLORS[min(rank, 2)]]),
+                     alpha=0.75, edgecolors="k", linewidth=0.2)
+    ax.set_xlim(x0, x1)
+    ax.set_ylim(y1, y0)
+    ax.set_title("key 1's hidden layers:\n1st purple, 2nd orange", fontsize=8)
+    frames = [("truth", truth[mid])] + [(k, r.frames[mid]) for k, r in results.items()]
+    for ax, (label, img) in zip(axes[1:], frames):
+        ax.imshow(over_white(img)[y0:y1, x0:x1])
+        ax.set_title(f"{label}\nt = 0.5", fontsize=8)
+    for a in axes:
+        a.set_xticks([])
+        a.set_yticks([])
     return fig
