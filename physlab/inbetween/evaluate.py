@@ -34,7 +34,9 @@ crosses the body (:data:`AD_OCCLUDED_SHOTS`, found by :func:`scan_occluded_shots
 regions suggested by :func:`~physlab.inbetween.occlusion.suggest_occlusions`, their T-junctions
 by :func:`~physlab.inbetween.occlusion.suggest_t_junctions` (``--no-t-junctions``: none) and
 joint depths from the BVH; physlab layered vs one sheet vs the baselines against the posed
-drawing.
+drawing — deformed as one sheet (``--truth sheet``, the default), or cut into body parts moved
+rigidly and painted by depth (``--truth parts``, :mod:`~physlab.inbetween.cutout`), a truth
+that is not the one-sheet method's own model.
 
 One's own keyframe pair — two keys, their skeletons, and in-betweens drawn by hand where
 there are some — is scored the same way by :func:`evaluate_folder` (``physlab evaluate
@@ -63,12 +65,13 @@ from .skeleton import INTERPOLATION_METHODS, interpolate
 from .template import as_rgba_float
 
 __all__ = ["METHODS", "METRICS", "run_methods", "frame_scores", "score_frames",
-           "comparison_sheet", "evaluate_pairs", "evaluate_folder", "summarize", "format_table",
+           "comparison_sheet", "middle_sheet", "evaluate_pairs", "evaluate_folder", "summarize",
+           "format_table",
            "AD_SHOTS", "pose_drawing", "animated_drawing_inbetween", "INTERPOLATION_SOURCES",
            "MOCAP_CLIPS", "CHARACTER_BANDAI_MAPPING", "InterpolationPair", "interpolation_pairs",
            "interpolation_errors", "interpolation_psnr", "interpolation_table",
            "compare_interpolation", "BODY_BONES", "LIMB_BONES", "CAPSULE_RADIUS",
-           "AD_OCCLUDED_SHOTS", "limb_body_overlaps", "scan_occluded_shots",
+           "AD_OCCLUDED_SHOTS", "OCCLUDED_TRUTHS", "limb_body_overlaps", "scan_occluded_shots",
            "OccludedDrawingPair", "occluded_drawing_pairs", "evaluate_occluded_drawings",
            "main"]
 
@@ -230,8 +233,55 @@ def comparison_sheet(frames, truth=None, path=None, every=2, title=None):
     return fig
 
 
+def middle_sheet(middles, path=None, title=None):
+    """Figure: one row per pair — both keys, the ground truth and every method at the middle
+    frame (t = 0.5 for an odd frame count).
+
+    Parameters
+    ----------
+    middles : dict pair name → dict with "key0", "key1", "truth", "t" and a (H, W, C) frame
+        per method (:func:`evaluate_pairs` with ``middle=True``).
+    path : PNG file to write (atomically), or None. title : str or None.
+
+    Returns
+    -------
+    matplotlib Figure.
+    """
+    from .plots import over_white
+    from ..viz.plots import new_figure
+
+    if not isinstance(middles, dict) or not middles:
+        raise ValueError("middles must be a non-empty dict pair name -> middle frames "
+                         "(evaluate_pairs(..., middle=True))")
+    methods = [m for m in METHODS + (SINGLE_SHEET,) if m in next(iter(middles.values()))]
+    cols = ["key0", "key1", "truth"] + methods
+    H, W = np.asarray(next(iter(middles.values()))["key0"]).shape[:2]
+    fig, axes = new_figure(ncols=len(cols), nrows=len(middles), width=1.2,
+                           height=1.2 * H / W)
+    axes = np.asarray(axes).reshape(len(middles), len(cols))
+    for r, (name, mid) in enumerate(middles.items()):
+        for c, col in enumerate(cols):
+            ax = axes[r, c]
+            ax.imshow(over_white(mid[col]))
+            ax.set_xticks([])
+            ax.set_yticks([])
+            if c == 0:
+                ax.set_ylabel(name, fontsize=7)
+            if r == 0:
+                label = {"key0": "key 0", "key1": "key 1",
+                         "truth": f"truth t = {mid['t']:.2g}"}.get(col, col.replace("_", " "))
+                ax.set_title(label, fontsize=7)
+    if title:
+        fig.suptitle(title, fontsize=8)
+    if path is not None:
+        from .._io import atomic_write
+
+        atomic_write(path, lambda tmp: fig.savefig(tmp, format="png", dpi=100), suffix=".png")
+    return fig
+
+
 def evaluate_pairs(pairs, n_frames=11, progress=True, interpolator=None, sheets=None,
-                   **options):
+                   middle=False, **options):
     """Score every method on every benchmark pair.
 
     Parameters
@@ -241,6 +291,7 @@ def evaluate_pairs(pairs, n_frames=11, progress=True, interpolator=None, sheets=
         (:class:`physlab.inbetween.characters.InbetweenPair`).
     n_frames : int, frames per pair including both keys (9 in-betweens → 11).
     sheets : folder for a :func:`comparison_sheet` PNG per pair, or None.
+    middle : bool, also return the middle frames (for :func:`middle_sheet`).
     options : passed to :func:`~physlab.inbetween.pipeline.inbetween`.
 
     Returns
@@ -249,6 +300,8 @@ def evaluate_pairs(pairs, n_frames=11, progress=True, interpolator=None, sheets=
         largest handle error and flipped-triangle count; for "physlab" and "physlab_diagonal"
         also ``q_fwd_min``, ``q_bwd_min``, the lowest per-frame texture quality of each
         deformed sequence, Sec. 5.2 — 1 when no inpainted texel is visible).
+    With ``middle``: ``(rows, middles)``, middles a dict pair name → {"key0", "key1",
+    "truth", "t", method → frame} at frame ``n_frames // 2``.
     """
     pairs = list(pairs)
     it = pairs
@@ -256,7 +309,7 @@ def evaluate_pairs(pairs, n_frames=11, progress=True, interpolator=None, sheets=
         from tqdm.auto import tqdm
 
         it = tqdm(pairs, desc="pairs")
-    rows = []
+    rows, middles = [], {}
     t = np.linspace(0.0, 1.0, n_frames)
     for pair in it:
         key0, key1 = pair.keyframes()
@@ -284,6 +337,10 @@ def evaluate_pairs(pairs, n_frames=11, progress=True, interpolator=None, sheets=
         if sheets is not None:
             comparison_sheet(frames, truth, Path(sheets) / f"{pair.name}.png",
                              title=f"{pair.name} ({pair.kind}, {getattr(pair, 'style', '')})")
+        if middle:
+            i = n_frames // 2
+            middles[pair.name] = {"key0": key0, "key1": key1, "truth": truth[i],
+                                  "t": float(t[i]), **{m: frames[m][i] for m in methods}}
         for m in methods:
             row = {"pair": pair.name, "kind": pair.kind, "method": m, "seconds": sec[m]}
             row.update(score_frames(frames[m], truth))
@@ -295,7 +352,7 @@ def evaluate_pairs(pairs, n_frames=11, progress=True, interpolator=None, sheets=
                 row["q_fwd_min"] = float(res.q_fwd.min())
                 row["q_bwd_min"] = float(res.q_bwd.min())
             rows.append(row)
-    return rows
+    return (rows, middles) if middle else rows
 
 
 def evaluate_folder(folder, n_frames=None, out=None, progress=False, interpolator=None,
@@ -525,6 +582,9 @@ AD_OCCLUDED_SHOTS = {
     "char3_zombie": ("char3", "zombie", 1.4, 1.9),
     "char1_zombie": ("char1", "zombie", 1.4, 1.9),
 }
+#: Ground truths of :class:`OccludedDrawingPair`: the rest drawing deformed as one sheet into
+#: each pose, or cut into body parts moved rigidly (:mod:`~physlab.inbetween.cutout`).
+OCCLUDED_TRUTHS = ("sheet", "parts")
 
 
 def _bone_capsules(skeleton):
@@ -685,7 +745,13 @@ class OccludedDrawingPair:
     along the camera axis (:func:`~physlab.inbetween.retarget.bvh_joint_depths`; a
     :class:`~physlab.inbetween.occlusion.LayeredTemplate` without regions, painter's order of
     Sec. 5.1), so a limb the actor holds in front of the body is drawn over it, one held behind
-    under it. The drawing itself has no occlusion, so its single sheet deforms cleanly.
+    under it. The drawing itself has no occlusion, so its single sheet deforms cleanly — but
+    it is the model of the one-sheet method, and where an arm folds across the chest the sheet
+    between them is pulled into a spike in the truth itself. ``truth="parts"`` is a second,
+    independent truth: the rest drawing cut into body parts, each moved rigidly by its bones
+    and painted back to front by the BVH joint depths (:mod:`~physlab.inbetween.cutout`, the
+    cut-out / paper-doll model; :attr:`parts`), so a limb crossing the body occludes it
+    cleanly. Either way the keys are the truth at t = 0 and 1, and all methods get the same.
 
     The occlusion annotation is made without a human (:meth:`occlusions`):
     :func:`~physlab.inbetween.occlusion.suggest_occlusions` on each key, kept where its bone
@@ -705,17 +771,19 @@ class OccludedDrawingPair:
         character's rest drawing (:func:`~physlab.inbetween.occlusion.bone_widths`) instead of
         one radius for all bones (default False: on these four shots the drawn widths lost
         0.6 dB at t = 0.5 and 1.6 dB over the sequence, README).
+    truth : :data:`OCCLUDED_TRUTHS` ``"sheet"`` (default: the posed one-sheet template) or
+        ``"parts"`` (the cut-out paper doll).
 
     Raises
     ------
     ValueError naming the argument for an unknown character or motion, times outside the
-    motion, a bad size; FileNotFoundError when the external data folder is missing.
+    motion, a bad size or truth; FileNotFoundError when the external data folder is missing.
     """
 
     kind = "occluded"
 
     def __init__(self, name, character, motion, t0, t1, size=256, t_junctions=True,
-                 rest_widths=False):
+                 rest_widths=False, truth="sheet"):
         from ..datasets import ANIMATED_DRAWINGS
         from .retarget import (ANIMATED_DRAWINGS_MOTIONS, ANIMATED_DRAWINGS_START_FRAMES,
                                load_motion)
@@ -727,6 +795,7 @@ class OccludedDrawingPair:
                              f"{motion!r}")
         if isinstance(size, bool) or not isinstance(size, (int, np.integer)) or size < 64:
             raise ValueError(f"size must be an int ≥ 64 (px), got {size!r}")
+        _check_truth(truth)
         self.bvh = load_motion(motion)
         self.ref = ANIMATED_DRAWINGS_START_FRAMES[motion]
         for arg, t in (("t0", t0), ("t1", t1)):
@@ -735,8 +804,8 @@ class OccludedDrawingPair:
                 raise ValueError(f"{arg} must be a time in [0, {self.bvh.duration:.2f}] s of "
                                  f"{motion!r}, got {t!r}")
         self.name, self.character, self.motion = name, character, motion
-        self.t0, self.t1, self.size = float(t0), float(t1), int(size)
-        self.style = f"{character} · {motion} {t0:g}–{t1:g} s"
+        self.t0, self.t1, self.size, self.truth = float(t0), float(t1), int(size), truth
+        self.style = f"{character} · {motion} {t0:g}–{t1:g} s, {truth} truth"
         self.image, self.mask, self.rest = _scaled_drawing(character, self.size)
         if not isinstance(t_junctions, (bool, np.bool_)):
             raise ValueError(f"t_junctions must be True or False, got {t_junctions!r}")
@@ -750,10 +819,20 @@ class OccludedDrawingPair:
 
             self.widths = bone_widths(self.rest, self.mask)
         self.skeleton0, self.skeleton1 = self.skeleton_at([0.0, 1.0])
-        self._template, self._frames, self._occlusions = None, {}, None
+        self._template, self._parts, self._frames, self._occlusions = None, None, {}, None
 
     def __repr__(self):
         return f"OccludedDrawingPair({self.name!r}, {self.style}, size={self.size})"
+
+    @property
+    def parts(self):
+        """The rest drawing cut into body parts (:func:`~physlab.inbetween.cutout.segment_parts`,
+        computed once): the ``"parts"`` truth's paper doll."""
+        if self._parts is None:
+            from .cutout import segment_parts
+
+            self._parts = segment_parts(self.mask, self.rest)
+        return self._parts
 
     def skeleton_at(self, t):
         """Skeletons (with BVH joint depths) at times ``t`` (m,) in [0, 1] of the shot."""
@@ -775,16 +854,22 @@ class OccludedDrawingPair:
         return self.skeleton_at(np.linspace(0.0, 1.0, int(n_frames)))
 
     def ground_truth(self, t):
-        """The drawing posed at time(s) ``t``: (H, W, 4) float32 RGBA, or (m, H, W, 4)."""
+        """The drawing posed at time(s) ``t``: (H, W, 4) float32 RGBA, or (m, H, W, 4) — the
+        one sheet deformed (``truth="sheet"``) or the cut-out parts moved rigidly
+        (``truth="parts"``, :func:`~physlab.inbetween.cutout.render_cutout`)."""
+        from .cutout import render_cutout
         from .occlusion import build_layered_template
 
-        if self._template is None:
+        if self.truth == "sheet" and self._template is None:
             self._template = build_layered_template(self.image, self.rest, (), mask=self.mask,
                                                     name=self.character)
         ts = np.atleast_1d(np.asarray(t, dtype=float))
         todo = [x for x in ts if float(x) not in self._frames]
         if todo:
             for x, s in zip(todo, self.skeleton_at(todo)):
+                if self.truth == "parts":
+                    self._frames[float(x)] = render_cutout(self.image, self.parts, self.rest, s)
+                    continue
                 _, xs = pose_drawing(self._template, s)
                 self._frames[float(x)] = self._template.render(xs, skeleton=s)
         out = np.stack([self._frames[float(x)] for x in ts])
@@ -835,19 +920,28 @@ class OccludedDrawingPair:
         return tuple(out)
 
 
-def occluded_drawing_pairs(shots=None, size=256, t_junctions=True, rest_widths=False):
+def _check_truth(truth):
+    if not isinstance(truth, str) or truth not in OCCLUDED_TRUTHS:
+        raise ValueError(f"truth must be one of {OCCLUDED_TRUTHS} (the posed one-sheet "
+                         f"template, or the drawing cut into rigid parts), got {truth!r}")
+    return truth
+
+
+def occluded_drawing_pairs(shots=None, size=256, t_junctions=True, rest_widths=False,
+                           truth="sheet"):
     """:class:`OccludedDrawingPair` of every shot (default :data:`AD_OCCLUDED_SHOTS`)."""
     shots = AD_OCCLUDED_SHOTS if shots is None else shots
     if not isinstance(shots, dict) or not shots:
         raise ValueError("shots must be a non-empty dict name -> (character, motion, t0, t1), "
                          f"got {shots!r}")
+    _check_truth(truth)
     return [OccludedDrawingPair(name, *shot, size=size, t_junctions=t_junctions,
-                                rest_widths=rest_widths)
+                                rest_widths=rest_widths, truth=truth)
             for name, shot in shots.items()]
 
 
 def evaluate_occluded_drawings(shots=None, size=256, n_frames=11, out=None, progress=True,
-                               t_junctions=True, rest_widths=False, **options):
+                               t_junctions=True, rest_widths=False, truth="sheet", **options):
     """Occlusion evaluation on real drawings (issue 15): every :func:`occluded_drawing_pairs`
     pair through :func:`evaluate_pairs` — physlab with layered templates from the suggested
     occlusions, physlab as one sheet, cross-dissolve, flow — scored against the posed drawing.
@@ -856,12 +950,14 @@ def evaluate_occluded_drawings(shots=None, size=256, n_frames=11, out=None, prog
     ----------
     shots : dict name → (character, motion, t0, t1), default :data:`AD_OCCLUDED_SHOTS`.
     size : int ≥ 64, image size (px). n_frames : int ≥ 3, frames per pair, keys included.
-    out : folder for ``table.md``, ``rows.json`` and a :func:`comparison_sheet` per pair
-        (``pairs/<name>.png``), or None.
+    out : folder for ``table.md``, ``rows.json``, ``contact.png`` (:func:`middle_sheet`: keys,
+        truth and every method at t = 0.5, one row per pair) and a :func:`comparison_sheet`
+        per pair (``pairs/<name>.png``), or None.
     progress : bool. rest_widths : bool, per-bone capsule radii (:class:`OccludedDrawingPair`).
     t_junctions : bool, suggested T-junctions on the suggested regions
-    (:class:`OccludedDrawingPair`). options : passed to
-    :func:`~physlab.inbetween.pipeline.inbetween`.
+    (:class:`OccludedDrawingPair`). truth : ``"sheet"`` (the posed one-sheet drawing, default)
+    or ``"parts"`` (the drawing cut into rigid parts; :class:`OccludedDrawingPair`).
+    options : passed to :func:`~physlab.inbetween.pipeline.inbetween`.
 
     Returns
     -------
@@ -872,18 +968,21 @@ def evaluate_occluded_drawings(shots=None, size=256, n_frames=11, out=None, prog
     """
     from ..datasets import external_data_dir
 
+    _check_truth(truth)
     if external_data_dir() is None:
         return {"rows": [], "table": "", "physlab": "", "files": [],
                 "skipped": "external data folder not found (set PHYSLAB_EXTERNAL_DATA or "
                            "provide ../shared/data with animated_drawings/)"}
     if isinstance(n_frames, bool) or not isinstance(n_frames, (int, np.integer)) or n_frames < 3:
         raise ValueError(f"n_frames must be an int ≥ 3 (keys included), got {n_frames!r}")
-    pairs = occluded_drawing_pairs(shots, size, t_junctions, rest_widths)
+    pairs = occluded_drawing_pairs(shots, size, t_junctions, rest_widths, truth)
     sheets = None if out is None else Path(out) / "pairs"
-    rows = evaluate_pairs(pairs, n_frames=n_frames, progress=progress, sheets=sheets, **options)
+    rows, middles = evaluate_pairs(pairs, n_frames=n_frames, progress=progress, sheets=sheets,
+                                   middle=True, **options)
     regions = {p.name: [len(o) for o in p.occlusions()] for p in pairs}
     for r in rows:
         r["regions0"], r["regions1"] = regions[r["pair"]]
+        r["truth"] = truth
     summary = {k: v for k, v in summarize(rows).items() if k[0] == "occluded"}
     table = format_table(summary)
     lines = ["pair | regions key0/key1 | variant | max handle error px | flipped | s",
@@ -902,6 +1001,9 @@ def evaluate_occluded_drawings(shots=None, size=256, n_frames=11, out=None, prog
 
         files.append(atomic_write_text(Path(out) / "table.md", table + "\n\n" + stats + "\n"))
         files.append(atomic_write_text(Path(out) / "rows.json", json.dumps(rows, indent=1)))
+        middle_sheet(middles, Path(out) / "contact.png",
+                     title=f"keys, {truth} truth and every method at the middle frame")
+        files.append(Path(out) / "contact.png")
         files += [sheets / f"{p.name}.png" for p in pairs]
     return {"rows": rows, "table": table, "physlab": stats, "files": files, "skipped": None}
 
@@ -1309,6 +1411,7 @@ def _parser():
                "  %(prog)s --pairs my_pair/ --out runs/my_pair          # one's own triplet\n"
                "  %(prog)s --occluded --size 256 --out runs/occluded     # limbs crossing\n"
                "  %(prog)s --occluded --source animated_drawings --out runs/ad_occluded\n"
+               "  %(prog)s --occluded --source animated_drawings --truth parts   # cut-out truth\n"
                "  %(prog)s --interpolation                  # skeleton interpolation methods\n"
                "\na --pairs DIR folder:\n" + FOLDER_FORMAT.replace("%", "%%"))
     p.add_argument("--size", type=int, default=None,
@@ -1358,6 +1461,10 @@ def _parser():
                    help="--occluded --source animated_drawings: suggested regions from capsules "
                         "as wide as each limb is drawn in the rest drawing (bone_widths) "
                         "instead of one radius for all bones")
+    p.add_argument("--truth", choices=OCCLUDED_TRUTHS, default="sheet",
+                   help="--occluded --source animated_drawings: the ground truth, 'sheet' (the "
+                        "rest drawing deformed as one sheet into each pose, default) or "
+                        "'parts' (cut into body parts moved rigidly, painted by depth)")
     p.add_argument("--texture-quality", choices=("inpainted", "none"), default="inpainted",
                    help="benchmark: the blending costs' texture quality q (Sec. 5.2) from the "
                         "visible inpainted pixels of the layered templates (default), or q ≡ 1 "
@@ -1408,7 +1515,7 @@ def _main_occluded_drawings(args, n_frames):
                                    progress=not args.no_progress,
                                    texture_quality=args.texture_quality,
                                    t_junctions=not args.no_t_junctions,
-                                   rest_widths=args.rest_widths)
+                                   rest_widths=args.rest_widths, truth=args.truth)
     if r["skipped"]:
         print(f"skipped AnimatedDrawings occlusions: {r['skipped']}")
         return
@@ -1419,7 +1526,8 @@ def _main_occluded_drawings(args, n_frames):
           f"suggest_occlusions, T-junctions "
           f"{'none' if args.no_t_junctions else 'by suggest_t_junctions'}, capsule radii "
           f"{'the limbs drawn half-widths' if args.rest_widths else 'one for all bones'}"
-          f", joint depths from the BVH. "
+          f", joint depths from the BVH. Ground truth: "
+          f"{'the drawing cut into rigid parts' if args.truth == 'parts' else 'one sheet'}. "
           f"{ANIMATED_DRAWINGS_ATTRIBUTION}")
     if r["files"]:
         print("wrote " + ", ".join(str(f) for f in r["files"]))
@@ -1463,6 +1571,9 @@ def main(argv=None):
     n_frames = DEFAULT_FRAMES if args.frames is None else args.frames
     if args.source != "procedural" and not args.occluded:
         raise ValueError(f"--source {args.source} is for --occluded; add --occluded")
+    if args.truth != "sheet" and not (args.occluded and args.source == "animated_drawings"):
+        raise ValueError(f"--truth {args.truth} is for --occluded --source animated_drawings; "
+                         "add them")
     if isinstance(args.pairs, Path):
         _main_folder(args)
     elif args.occluded and args.source == "animated_drawings":

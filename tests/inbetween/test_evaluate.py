@@ -275,6 +275,10 @@ def test_limb_body_overlaps_tiny_case():
     (lambda: evaluate.occluded_drawing_pairs({}), "shots must be"),
     (lambda: evaluate.OccludedDrawingPair("x", "char1", "dab", 0, 1, t_junctions="y"),
      "t_junctions must be True or False"),
+    (lambda: evaluate.OccludedDrawingPair("x", "char1", "dab", 0, 1, truth="mesh"),
+     "truth must be one of"),
+    (lambda: evaluate.occluded_drawing_pairs(truth=None), "truth must be one of"),
+    (lambda: evaluate.evaluate_occluded_drawings(truth="part"), "truth must be one of"),
 ])
 def test_occluded_drawings_bad_arguments(call, match):
     with pytest.raises(ValueError, match=match):
@@ -304,6 +308,10 @@ def test_occluded_drawings_skip_without_data(monkeypatch, capsys):
 def test_source_needs_occluded():
     with pytest.raises(ValueError, match="--source animated_drawings is for --occluded"):
         evaluate.main(["--source", "animated_drawings", "--skip-benchmark"])
+    with pytest.raises(ValueError, match="--truth parts is for --occluded --source"):
+        evaluate.main(["--occluded", "--truth", "parts", "--skip-benchmark"])
+    with pytest.raises(SystemExit):   # argparse: "argument --truth: invalid choice"
+        evaluate.main(["--occluded", "--source", "animated_drawings", "--truth", "mesh"])
 
 
 def test_scan_finds_shots_whose_key_overlaps(real_data):
@@ -321,14 +329,16 @@ def test_scan_finds_shots_whose_key_overlaps(real_data):
         assert p.skeleton0.depth is not None
 
 
-def test_occluded_drawing_route_small(real_data, tmp_path):
+@pytest.mark.parametrize("truth", evaluate.OCCLUDED_TRUTHS)
+def test_occluded_drawing_route_small(real_data, tmp_path, truth):
     import time
 
     shot = {"char4_dab": evaluate.AD_OCCLUDED_SHOTS["char4_dab"]}
     tic = time.perf_counter()
     r = evaluate.evaluate_occluded_drawings(shot, size=96, n_frames=3, out=tmp_path,
-                                            progress=False, max_iter=300)
+                                            progress=False, max_iter=300, truth=truth)
     assert time.perf_counter() - tic < 30
+    assert {row["truth"] for row in r["rows"]} == {truth}
     methods = {row["method"] for row in r["rows"]}
     assert methods == set(evaluate.METHODS) | {evaluate.SINGLE_SHEET}
     for row in r["rows"]:
@@ -339,6 +349,7 @@ def test_occluded_drawing_route_small(real_data, tmp_path):
     assert r["rows"][0]["regions0"] + r["rows"][0]["regions1"] >= 1  # suggested regions
     assert "layered" in r["physlab"] and "one sheet" in r["physlab"]
     assert (tmp_path / "pairs" / "char4_dab.png").is_file() and (tmp_path / "table.md").is_file()
+    assert (tmp_path / "contact.png").is_file() and tmp_path / "contact.png" in r["files"]
 
 
 def test_occluded_drawing_regions_carry_suggested_t_junctions(real_data):
@@ -369,3 +380,134 @@ def test_occluded_drawing_regions_carry_suggested_t_junctions(real_data):
     assert a != b and sum(b) > 0
     with pytest.raises(ValueError, match="rest_widths"):
         evaluate.OccludedDrawingPair("char2_dab", *shot2, size=192, rest_widths="yes")
+
+
+# ------------------------------------------ the second ground truth: the drawing cut into parts
+@pytest.fixture(scope="module")
+def parts_pair(real_data):
+    """char1 at the zombie shot's keys: both arms swing forward across the chest at key 1."""
+    shot = evaluate.AD_OCCLUDED_SHOTS["char1_zombie"]
+    return evaluate.OccludedDrawingPair("char1_zombie", *shot, size=128, truth="parts")
+
+
+def _rest_drawing(p):
+    """The rest drawing as the parts truth draws it: straight RGBA, alpha × foreground."""
+    from physlab.inbetween.template import as_rgba_float
+
+    ref = as_rgba_float(p.image).copy()
+    ref[..., 3] *= p.mask
+    return ref
+
+
+def test_parts_truth_at_rest_is_the_drawing(parts_pair):
+    """Every part at its rest place: the drawing comes back to float precision (the joint
+    caps lie under identical pixels), and the truth at the keys is a different image from the
+    one-sheet truth's (the two models disagree once the arms move)."""
+    from physlab.inbetween.cutout import render_cutout
+
+    p = parts_pair
+    ref = _rest_drawing(p)
+    for rest in (p.rest, p.rest.with_depth(p.skeleton0.depth)):
+        out = render_cutout(p.image, p.parts, p.rest, rest)
+        assert np.abs(out[..., 3] - ref[..., 3]).max() < 1e-6
+        assert np.abs((out - ref)[..., :3] * ref[..., 3:]).max() < 1e-6
+    assert set(p.parts.names) >= {"torso", "head", "left_upper_arm", "left_forearm",
+                                  "right_thigh", "right_shin"}
+    sheet = evaluate.OccludedDrawingPair("char1_zombie", *evaluate.AD_OCCLUDED_SHOTS[
+        "char1_zombie"], size=128)
+    a, b = p.ground_truth(1.0), sheet.ground_truth(1.0)
+    assert a.shape == b.shape and np.abs(a - b).mean() > 0.01
+
+
+def test_parts_truth_moves_every_part_rigidly(parts_pair):
+    """Each part's warped layer has the rest part's area, its centroid moved by the part's
+    transform and its second moments rotated by it (distances within the part preserved);
+    the transforms are rotations that take the part's bones onto the posed bones."""
+    from physlab.inbetween.cutout import cutout_layers, part_transforms
+
+    p = parts_pair
+    sk = p.skeleton1
+    T = part_transforms(p.parts, p.rest, sk)
+    ref = _rest_drawing(p)
+    H, W = ref.shape[:2]
+    yy, xx = np.mgrid[:H, :W]
+
+    def moments(a):
+        m = a.sum()
+        c = np.array([(a * xx).sum(), (a * yy).sum()]) / m
+        d = np.stack([xx - c[0], yy - c[1]], -1)
+        return m, c, np.einsum("hw,hwi,hwj->ij", a, d, d) / m
+
+    layers = {n: layer for n, kind, _, layer in cutout_layers(p.image, p.parts, p.rest, sk)
+              if kind == "part"}
+    assert set(layers) == set(p.parts.names)
+    for k, name in enumerate(p.parts.names):
+        R, t = T[k, :, :2], T[k, :, 2]
+        assert np.allclose(R.T @ R, np.eye(2), atol=1e-12) and np.linalg.det(R) > 0
+        js = p.parts.bones[k]
+        if name != "torso":   # a limb's bone lands exactly on the posed bone
+            for j in (js[0], p.rest.parents[js[0]]):
+                assert np.allclose(R @ p.rest.xy[j] + t, sk.xy[j], atol=1e-6), name
+        m0, c0, C0 = moments(ref[..., 3] * p.parts.drawn(k))
+        m1, c1, C1 = moments(layers[name][..., 3])
+        assert abs(m1 / m0 - 1) < 0.02, name
+        assert np.linalg.norm(c1 - (R @ c0 + t)) < 0.1, name
+        assert np.abs(C1 - R @ C0 @ R.T).max() < 0.02 * np.abs(C0).max() + 0.05, name
+
+
+def test_parts_truth_paints_the_nearer_part(parts_pair):
+    """At key 1 the forearms lie across the chest, nearer than the torso (BVH depths). The
+    layers are painted far to near; wherever two or more parts cover a pixel fully (and
+    nothing lies partly over the nearest of them) the nearest part's colour shows — there
+    the forearms over the torso; with the depths negated the torso over the forearms."""
+    from physlab.inbetween.cutout import cutout_layers, render_cutout
+
+    p = parts_pair
+    sk = p.skeleton1
+    tops = []
+    for s in (sk, sk.with_depth(-sk.depth)):
+        layers = cutout_layers(p.image, p.parts, p.rest, s)
+        out = render_cutout(p.image, p.parts, p.rest, s)
+        depth = [d for *_, d, _ in layers]
+        assert all(a >= b for a, b in zip(depth, depth[1:]))        # far to near
+        alpha = np.stack([lay[..., 3] for *_, lay in layers])     # (L, H, W)
+        is_part = np.array([kind == "part" for _, kind, _, _ in layers])
+        opaque = alpha > 0.999
+        L = len(layers)
+        top = L - 1 - np.argmax(opaque[::-1], axis=0)               # nearest opaque layer
+        above = (alpha > 0) & (np.arange(L)[:, None, None] > top)
+        ok = (opaque & is_part[:, None, None]).sum(0) >= 2
+        ok &= ~above.any(0) & opaque.any(0) & is_part[top]
+        want = np.take_along_axis(np.stack([lay for *_, lay in layers]),
+                                  top[None, ..., None], 0)[0]
+        assert ok.sum() > 100
+        assert np.abs(out[ok][:, :3] - want[ok][:, :3]).max() < 2e-3  # alpha ≥ 0.999
+        names = np.array([n for n, *_ in layers])[top]
+        torso = opaque[[i for i, (n, k, *_) in enumerate(layers) if n == "torso" and
+                        k == "part"][0]]
+        tops.append((names, ok & torso))
+    (n0, ok0), (n1, ok1) = tops
+    crossed = ok0 & ok1 & np.char.endswith(n0, "_forearm")
+    assert crossed.sum() > 20                     # forearms in front of the chest ...
+    # ... behind it with the depths negated (the head, then nearer still, over a few)
+    assert not np.char.endswith(n1[crossed], "_forearm").any()
+    assert (n1[crossed] == "torso").mean() > 0.8
+
+
+def test_parts_truth_joint_caps_only_fill_gaps(parts_pair):
+    """The joint caps change the truth only where a cap lies (they fill the wedges that open
+    outside bent elbows and knees) and add coverage there."""
+    from physlab.inbetween.cutout import cutout_layers, render_cutout, segment_parts
+
+    p = parts_pair
+    sk = p.skeleton_at(0.5)[0]
+    bare = segment_parts(p.mask, p.rest, caps=False)
+    a = render_cutout(p.image, p.parts, p.rest, sk)
+    b = render_cutout(p.image, bare, p.rest, sk)
+    cap = np.zeros(a.shape[:2], bool)
+    for _, kind, _, layer in cutout_layers(p.image, p.parts, p.rest, sk):
+        if kind == "cap":
+            cap |= layer[..., 3] > 0
+    assert np.abs(a - b)[~cap].max() < 1e-5
+    filled = (a[..., 3] > 0.5) & (b[..., 3] < 0.5)
+    assert filled.sum() > 0 and not (filled & ~cap).any()
