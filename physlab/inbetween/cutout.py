@@ -311,9 +311,9 @@ def part_transforms(parts, rest, skeleton):
     Returns (P, 2, 3) float64 ``[R | t]``: ``x = R X + t``.
     """
     check_compatible(rest, skeleton, ("rest", "skeleton"))
-    out = np.empty((len(parts.names), 2, 3))
     from .retarget import _base_name
 
+    out = np.empty((len(parts.names), 2, 3))
     for k, js in enumerate(parts.bones):
         fit = [j for j in js if not _base_name(rest.names[j]).endswith(UNFITTED_BONES)]
         js = np.array(fit) if fit else js
@@ -330,15 +330,20 @@ def part_depths(parts, skeleton):
                      .mean() for js in parts.bones])
 
 
-def _warp(layer, T, shape):
-    """Premultiplied layer (h, w, 4) moved by the rigid T (2, 3) into an image of ``shape``."""
+def _pixel_grid(shape):
+    """(H·W, 2) float (x, y) of every pixel of an image of ``shape``, row by row."""
+    yy, xx = np.mgrid[:shape[0], :shape[1]].astype(float)
+    return np.stack([xx.ravel(), yy.ravel()], 1)
+
+
+def _warp(layer, T, shape, grid):
+    """Premultiplied layer (h, w, 4) moved by the rigid T (2, 3) into an image of ``shape``
+    whose pixels are ``grid`` (:func:`_pixel_grid`)."""
     from scipy import ndimage
 
     H, W = shape
     R, t = T[:, :2], T[:, 2]
-    yy, xx = np.mgrid[:H, :W].astype(float)
-    x = np.stack([xx.ravel(), yy.ravel()], 1) - t
-    X = x @ R          # Rᵀ (x − t) for every row: the rest position of each output pixel
+    X = (grid - t) @ R  # Rᵀ (x − t) for every row: the rest position of each output pixel
     out = np.empty((H, W, 4), np.float64)
     for c in range(4):
         out[..., c] = ndimage.map_coordinates(layer[..., c], [X[:, 1], X[:, 0]], order=1,
@@ -382,7 +387,8 @@ def cutout_layers(image, parts, rest, skeleton, out_shape=None):
             key = depth[k] if kind == "part" else max(depth[k], depth[parts.parent[k]])
             items.append((-key, kind == "part", k, name, kind, key, layer))
     items.sort(key=lambda it: it[:3])   # far to near; at equal depth caps first
-    return [(name, kind, key, _warp(layer, T[k], shape))
+    grid = _pixel_grid(shape)           # once for every layer
+    return [(name, kind, key, _warp(layer, T[k], shape, grid))
             for _, _, k, name, kind, key, layer in items]
 
 
