@@ -1,7 +1,8 @@
 """Bandai-Namco training windows for a Sketch2Anim-style motion generator.
 
 Data: Bandai-Namco-Research-Motiondataset 1 & 2 as listed by ``labels.csv`` in
-``<external data>/mocap/bandai_namco`` (314 BVH clips, 30 fps, content x style x take; see
+``<external data>/mocap/bandai_namco`` (BVH clips at 30 fps, content x style x take: 874 in
+the copy of 2026-11 — dataset 1 takes 001–002, dataset 2 takes 001–010; see
 ``../shared/data/README.md``). Attribution: CC BY-NC 4.0, © 2022 Bandai Namco Research Inc.
 (Kobayashi et al. 2023, "Motion Capture Dataset for Practical Use of AI-based Motion Editing
 and Stylization"). The clips are read from the external folder and never copied into the
@@ -585,12 +586,12 @@ def random_condition(window, rng, min_t_r=5, single_joint=0.0):
 def split_by_take(clips, test_takes=TEST_TAKES):
     """Split clips into train / test by take, holding out whole clips.
 
-    Default: test = take ``"002"``. Every take-002 clip (88 of 314: all of dataset 2, and
-    walk / call / punch / slash of dataset 1) is a second performance of a (dataset,
-    content, style) whose take 001 stays in training, so the test measures generalisation
-    to a new performance of known actions and styles, and no content or style is missing
-    from training. It holds out 28 % of the frames. Windows of one clip never straddle the
-    split because whole clips are assigned.
+    Default: test = take ``"002"``. Every take-002 clip (88 of the 874 of 2026-11: 70 of
+    dataset 2, and walk / call / punch / slash of dataset 1) is another performance of a
+    (dataset, content, style) whose take 001 stays in training, so the test measures
+    generalisation to a new performance of known actions and styles, and no content or
+    style is missing from training. It holds out 11 % of the frames. Windows of one clip
+    never straddle the split because whole clips are assigned.
 
     Parameters
     ----------

@@ -114,6 +114,7 @@ __all__ = [
     "SCHEDULERS",
     "SMOKE_MODEL",
     "TrainConfig",
+    "action_weights",
     "condition_batch",
     "control_losses",
     "export_weights",
@@ -195,6 +196,8 @@ class TrainConfig:
     max_clips: int = 0              # use only the first k training clips (0 = all)
     window_stride: int = 10         # frames between window starts (40-frame windows)
     mirror: bool = False            # add every window's mirror image (dataset.mirror_windows)
+    balance: float = 0.0            # draw a window with weight (windows of its action)^-balance:
+                                    # 0 = uniform, 1 = every action equally often (action_weights)
     text_encoder: str = "minilm"    # "minilm" (text.ActionEncoder) | "hash" (tests: fake)
     text_cache: str = ""            # optional EmbeddingCache .npz to read / fill
     smoke: bool = False             # tiny model, few steps, few clips: seconds
@@ -219,7 +222,7 @@ class TrainConfig:
                      "lambda_vel", "warmup", "seed", "num_threads", "max_clips",
                      "cond_drop_prob", "drop_keypose", "drop_trajectory", "single_joint",
                      "lambda_match",
-                     "lambda_recon", "lambda_contrast", "tau", "sketch_noise"):
+                     "lambda_recon", "lambda_contrast", "tau", "sketch_noise", "balance"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
                 raise ValueError(f"{name} must be a finite number, got {v!r}")
@@ -236,6 +239,9 @@ class TrainConfig:
         if not 0 <= self.num_threads <= 256:
             raise ValueError(f"num_threads must be in 0..256 (0 = automatic), got "
                              f"{self.num_threads}")
+        if not 0 <= self.balance <= 1:
+            raise ValueError(f"balance must be in [0, 1] (0 = uniform sampling, 1 = every "
+                             f"action equally often), got {self.balance}")
         if not 0 <= self.single_joint <= 1:
             raise ValueError(f"single_joint must be a probability in [0, 1], got "
                              f"{self.single_joint}")
@@ -337,7 +343,39 @@ def prepare_data(cfg: TrainConfig, stats: FeatureStats | None = None, cache=None
             "text_index": torch.tensor([index[t] for t in win.text], dtype=torch.int64),
             "text_emb": torch.tensor(E, dtype=torch.float32), "texts": texts,
             "stats": stats, "cache": cache,
-            "train_takes": train_takes}
+            "train_takes": train_takes,
+            "sample_weights": torch.tensor(action_weights(win.content, cfg.balance),
+                                           dtype=torch.float64)}
+
+
+def action_weights(actions, balance=0.0):
+    """Sampling weights of training windows that balance their actions.
+
+    ``w_i = n(a_i)^-balance / Σ_j n(a_j)^-balance`` with ``n(a)`` the number of windows of
+    action ``a``: ``balance = 0`` draws windows uniformly (an action as often as it has
+    windows), ``balance = 1`` draws every action equally often, and values between soften
+    the long tail (Bandai-Namco has 100 walk clips but 15 of walking backwards and one kick).
+
+    Parameters
+    ----------
+    actions : sequence of N hashable action labels (e.g. ``Windows.content``).
+    balance : float in [0, 1].
+
+    Returns
+    -------
+    (N,) float64 array, positive, summing to 1.
+    """
+    if isinstance(balance, bool) or not isinstance(balance, (int, float)) \
+            or not 0 <= balance <= 1:
+        raise ValueError(f"balance must be a number in [0, 1], got {balance!r}")
+    actions = list(actions)
+    if not actions:
+        raise ValueError("actions is empty: no training windows to weight")
+    counts = {}
+    for a in actions:
+        counts[a] = counts.get(a, 0) + 1
+    w = np.array([counts[a] ** -float(balance) for a in actions], dtype=np.float64)
+    return w / w.sum()
 
 
 def condition_batch(windows, rng, min_t_r=5, drop_keypose=0.0, drop_trajectory=0.0,
@@ -578,6 +616,7 @@ def train(**kwargs):
     joints_np = data["joints"]
     joints_all = torch.tensor(joints_np, dtype=torch.float32)
     N, B = len(x0_all), cfg.batch_size
+    weights = data["sample_weights"] if cfg.balance > 0 else None        # None: bit-identical
 
     def checkpoint(loss):
         digests = [_param_digest(model)]
@@ -605,7 +644,8 @@ def train(**kwargs):
         while step < cfg.steps:
             for group in opt.param_groups:
                 group["lr"] = warmup_cosine_lr(cfg, step)
-            idx = torch.randint(N, (B,), generator=g)                            # (B,)
+            idx = (torch.randint(N, (B,), generator=g) if weights is None        # (B,)
+                   else torch.multinomial(weights, B, replacement=True, generator=g))
             x0 = x0_all[idx]                                                     # (B, T, D)
             a = text_emb[text_idx[idx]]                                          # (B, 384)
             t = sched.sample_timesteps(B, generator=g)                           # (B,)

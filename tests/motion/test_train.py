@@ -17,6 +17,7 @@ from physlab.motion.features import FeatureStats, joints_to_features
 from physlab.motion.model import ControlledDenoiser, MotionDenoiser
 from physlab.motion.train import (
     TrainConfig,
+    action_weights,
     condition_batch,
     prepare_data,
     control_losses,
@@ -332,3 +333,44 @@ def test_mirror_augmentation_doubles_the_windows_and_mirrors_the_texts(real_data
     texts = [both["texts"][i] for i in both["text_index"][n:]]
     assert texts == [mirror_text(plain["texts"][i]) for i in plain["text_index"]]
     assert dataclasses.asdict(TrainConfig(mirror=True))["mirror"] is True  # saved in the ckpt
+
+
+def test_action_weights_balance_the_actions():
+    acts = ["walk"] * 6 + ["kick"] * 1 + ["bow"] * 3
+    uniform = action_weights(acts, 0.0)
+    np.testing.assert_allclose(uniform, np.full(10, 0.1))
+    equal = action_weights(acts, 1.0)                 # every action drawn equally often
+    per_action = {a: equal[[i for i, b in enumerate(acts) if b == a]].sum() for a in set(acts)}
+    np.testing.assert_allclose(sorted(per_action.values()), [1 / 3] * 3)
+    half = action_weights(acts, 0.5)                  # mass of an action ∝ sqrt(its windows)
+    assert half.sum() == pytest.approx(1.0)
+    assert half[:6].sum() / half[6] == pytest.approx(6 / np.sqrt(6))
+    for bad in (-0.1, 1.5, True, "0.5"):
+        with pytest.raises(ValueError, match="balance"):
+            action_weights(acts, bad)
+    with pytest.raises(ValueError, match="empty"):
+        action_weights([], 0.5)
+    with pytest.raises(ValueError, match="balance must be in"):
+        TrainConfig(balance=2.0)
+
+
+def test_balanced_sampling_draws_rare_actions_more_often(real_data, tmp_path, monkeypatch):
+    """``balance`` reaches the sampler: with balance > 0 the training run draws its batches
+    from the windows' action weights, with 0 it keeps its uniform ``randint`` stream."""
+    data = prepare_data(TrainConfig(balance=1.0, max_clips=3, text_encoder="hash",
+                                    progress=False), representation="absolute")
+    w = data["sample_weights"].numpy()
+    assert w.shape == (len(data["x0"]),) and w.sum() == pytest.approx(1.0)
+    drawn = []
+    real_multinomial = torch.multinomial
+
+    def spy(weights, *args, **kwargs):
+        drawn.append(weights)
+        return real_multinomial(weights, *args, **kwargs)
+
+    monkeypatch.setattr(torch, "multinomial", spy)
+    train(stage="base", out=str(tmp_path / "bal.pt"), steps=2, balance=1.0, **SMOKE)
+    assert len(drawn) == 2 and all(d.sum().item() == pytest.approx(1.0) for d in drawn)
+    drawn.clear()
+    train(stage="base", out=str(tmp_path / "uni.pt"), steps=2, **SMOKE)
+    assert not drawn
