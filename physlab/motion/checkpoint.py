@@ -157,7 +157,10 @@ def load_model(path_or_ckpt):
     model = _build(ckpt)
     model.load_state_dict({k: v.float() for k, v in ckpt["model"].items()})
     model.eval()
-    return {"model": model, "scheduler": NoiseScheduler.from_dict(ckpt["scheduler"]),
+    scheduler = NoiseScheduler.from_dict(ckpt["scheduler"])
+    (model if isinstance(model, MotionDenoiser) else model.base).set_schedule(
+        scheduler.alphas_cumprod)                                          # config.skip only
+    return {"model": model, "scheduler": scheduler,
             "stats": FeatureStats(**ckpt["feature_stats"]),
             "text_cache": EmbeddingCache.from_state_dict(ckpt["text_cache"]),
             "config": model.config, "stage": ckpt["stage"], "step": ckpt["step"]}

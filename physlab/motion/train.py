@@ -204,6 +204,9 @@ class TrainConfig:
     progress: bool = True           # tqdm bar on rank 0
 
     def __post_init__(self):
+        for name in ("out", "base_ckpt", "data_root", "text_cache"):   # a Path is welcome, but
+            if isinstance(getattr(self, name), os.PathLike):         # the checkpoint stores str
+                setattr(self, name, os.fspath(getattr(self, name)))
         if self.stage not in STAGES:
             raise ValueError(f"stage must be one of {STAGES}, got {self.stage!r}")
         if self.scheduler not in SCHEDULERS:
@@ -554,6 +557,9 @@ def train(**kwargs):
             raise ValueError(f"--smooth-basis {model_cfg.smooth_basis} needs --prediction sample "
                              f"(it low-passes x̂₀; a noise prediction must keep every "
                              f"frequency); use --smooth-basis 0")
+        if model_cfg.skip and cfg.prediction != "sample":
+            raise ValueError(f"--skip needs --prediction sample (it writes x̂₀ as √ᾱ_t x_t + "
+                             f"√(1 − ᾱ_t) F), got --prediction {cfg.prediction}; use --no-skip")
         stats, cache = None, None
         sched = NoiseScheduler(SchedulerConfig(**SCHEDULERS[cfg.scheduler],
                                                prediction_type=cfg.prediction))
@@ -566,7 +572,7 @@ def train(**kwargs):
                          f"{data['x0'].shape[1]} feature rows")
     p_drop = model_cfg.cond_drop_prob if cfg.cond_drop_prob < 0 else cfg.cond_drop_prob
 
-    base = MotionDenoiser(model_cfg)
+    base = MotionDenoiser(model_cfg).set_schedule(sched.alphas_cumprod)  # config.skip only
     if cfg.stage == "base":
         model = base
     elif cfg.stage == "align":

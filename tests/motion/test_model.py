@@ -1,6 +1,8 @@
 """Tests of physlab.motion.model: shapes, the zero-init property of ControlNet / adapter
 (Sketch2Anim Eqs. (1)–(4)), an overfit sanity check, and the torch features -> joints decoder
 against the numpy inverse."""
+import dataclasses
+
 import numpy as np
 import pytest
 import torch
@@ -257,3 +259,35 @@ def test_low_pass_matrix_is_the_dct_projection_and_smooths_the_output():
     for bad in (-1, 41, 2.5, True):
         with pytest.raises(ValueError, match="smooth_basis must be an integer"):
             DenoiserConfig.for_representation("absolute", smooth_basis=bad)
+
+
+def test_skip_connection_is_the_linear_guess_plus_a_scaled_correction():
+    """``config.skip``: x̂₀ = √ᾱ_t x_t + √(1 − ᾱ_t) F. With the head zeroed (F = 0) the
+    output is exactly √ᾱ_t x_t (then low-passed); F enters scaled by √(1 − ᾱ_t)."""
+    from physlab.motion.diffusion import NoiseScheduler, SchedulerConfig
+
+    abar = NoiseScheduler(SchedulerConfig()).alphas_cumprod
+    cfg = DenoiserConfig.for_representation("absolute", d_model=32, n_heads=2, n_layers=1,
+                                            ff=64, skip=True)
+    torch.manual_seed(0)
+    m = MotionDenoiser(cfg).eval()
+    x, t, a = torch.randn(2, 40, 70), torch.tensor([0, 999]), torch.randn(2, 384)
+    with pytest.raises(RuntimeError, match="set_schedule"):
+        m(x, t, a)
+    plain = MotionDenoiser(dataclasses.replace(cfg, skip=False)).eval()
+    plain.load_state_dict(m.state_dict())
+    m.set_schedule(abar)
+    assert "skip_scale" not in m.state_dict()             # from the scheduler, not the weights
+    with torch.no_grad():
+        F, out = plain(x, t, a), m(x, t, a)
+        s = abar[t].sqrt().float()[:, None, None]
+        torch.testing.assert_close(out, s * x + (1 - s ** 2).sqrt() * F)
+        torch.nn.init.zeros_(m.head.weight)
+        torch.nn.init.zeros_(m.head.bias)
+        torch.testing.assert_close(m(x, t, a), s * x)
+    for bad in (abar[:10], torch.zeros(1000), abar * 2):
+        with pytest.raises(ValueError, match="alphas_cumprod"):
+            m.set_schedule(bad)
+    with pytest.raises(ValueError, match="skip must be True or False"):
+        DenoiserConfig(skip=1)
+    assert plain.set_schedule(torch.zeros(3)) is plain    # no skip connection: ignored

@@ -374,3 +374,37 @@ def test_balanced_sampling_draws_rare_actions_more_often(real_data, tmp_path, mo
     drawn.clear()
     train(stage="base", out=str(tmp_path / "uni.pt"), steps=2, **SMOKE)
     assert not drawn
+
+
+def test_skip_connection_trains_saves_and_reloads_its_schedule(real_data, tmp_path):
+    """A ``--skip`` base trains, and :func:`load_model` restores the skip connection's ᾱ_t
+    from the checkpoint's scheduler: the reloaded model gives the trained one's outputs."""
+    with pytest.raises(ValueError, match="--skip needs --prediction sample"):
+        train(stage="base", out=str(tmp_path / "e.pt"), steps=1, skip=True,
+              prediction="epsilon", smooth_basis=0, **SMOKE)
+    res = train(stage="base", out=str(tmp_path / "skip.pt"), steps=2, skip=True, **SMOKE)
+    a = load_model(res["path"])
+    assert a["config"].skip and a["model"].skip_scale.numel() == a["config"].max_timesteps
+    np.testing.assert_allclose(a["model"].skip_scale.double() ** 2,
+                               a["scheduler"].alphas_cumprod, rtol=1e-6)
+    cfg = a["config"]
+    x = torch.randn(2, cfg.n_frames, cfg.feature_dim, generator=torch.Generator().manual_seed(0))
+    e = torch.tensor(a["text_cache"].embeddings[:1]).expand(2, -1)
+    t = torch.tensor([0, 999])
+    with torch.no_grad():
+        y = a["model"](x, t, e)
+        b = load_model(res["path"])["model"]
+        torch.testing.assert_close(b(x, t, e), y)
+    ctrl = train(stage="control", base_ckpt=res["path"], out=str(tmp_path / "c.pt"), steps=1,
+                 **SMOKE)
+    c = load_model(ctrl["path"])["model"]
+    assert c.base.config.skip and c.base.skip_scale.numel() == cfg.max_timesteps
+
+
+def test_paths_are_stored_as_strings():
+    """A ``Path`` given for a path option is stored as ``str`` (a checkpoint holding a
+    ``PosixPath`` would be refused by the weights-only loader)."""
+    cfg = TrainConfig(stage="control", base_ckpt=Path("runs/base.pt"), out=Path("c.pt"),
+                      text_cache=Path("cache.npz"), data_root=Path("data"))
+    assert all(type(getattr(cfg, k)) is str
+               for k in ("base_ckpt", "out", "text_cache", "data_root"))
