@@ -382,7 +382,7 @@ class MotionDenoiser(nn.Module):
 
     **Skip connection** (``config.skip``, x₀-prediction): the output is
     ``x̂₀ = √ᾱ_t x_t + √(1 − ᾱ_t) F(x_t, t, a)`` with ``F`` the transformer's head — the
-    preconditioning of Karras et al. 2022 (EDM, Eq. (7) and Table 1: ``c_skip = σ_d² / (σ² +
+    preconditioning of Karras et al. 2022 (EDM, Table 1: ``c_skip = σ_d² / (σ² +
     σ_d²)``, ``c_out = σ σ_d / √(σ² + σ_d²)``) written for the variance-preserving process with
     ``σ_d = 1`` (normalised features): ``√ᾱ_t x_t`` is the best linear guess of x₀ from x_t and
     ``√(1 − ᾱ_t)`` the size of what it misses. Near t = 0 the identity comes free and the
