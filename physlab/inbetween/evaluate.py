@@ -32,11 +32,13 @@ Occlusions on real drawings (``--occluded --source animated_drawings``,
 :func:`evaluate_occluded_drawings`): AnimatedDrawings characters posed by BVH motions whose hand
 crosses the body (:data:`AD_OCCLUDED_SHOTS`, found by :func:`scan_occluded_shots`), occlusion
 regions suggested by :func:`~physlab.inbetween.occlusion.suggest_occlusions`, their T-junctions
-by :func:`~physlab.inbetween.occlusion.suggest_t_junctions` (``--no-t-junctions``: none) and
-joint depths from the BVH; physlab layered vs one sheet vs the baselines against the posed
-drawing — deformed as one sheet (``--truth sheet``, the default), or cut into body parts moved
-rigidly and painted by depth (``--truth parts``, :mod:`~physlab.inbetween.cutout`), a truth
-that is not the one-sheet method's own model.
+by :func:`~physlab.inbetween.occlusion.suggest_t_junctions` (``--no-t-junctions``: none) — or
+grown to each limb's whole contact with the body (``--regions contact``,
+:func:`~physlab.inbetween.occlusion.limb_contact`) — and joint depths from the BVH; physlab
+layered vs one sheet vs the baselines against the posed drawing — deformed as one sheet
+(``--truth sheet``, the default), or cut into body parts moved rigidly and painted by depth
+(``--truth parts``, :mod:`~physlab.inbetween.cutout`), a truth that is not the one-sheet
+method's own model.
 
 One's own keyframe pair — two keys, their skeletons, and in-betweens drawn by hand where
 there are some — is scored the same way by :func:`evaluate_folder` (``physlab evaluate
@@ -71,7 +73,8 @@ __all__ = ["METHODS", "METRICS", "run_methods", "frame_scores", "score_frames",
            "MOCAP_CLIPS", "CHARACTER_BANDAI_MAPPING", "InterpolationPair", "interpolation_pairs",
            "interpolation_errors", "interpolation_psnr", "interpolation_table",
            "compare_interpolation", "BODY_BONES", "LIMB_BONES", "CAPSULE_RADIUS",
-           "AD_OCCLUDED_SHOTS", "OCCLUDED_TRUTHS", "limb_body_overlaps", "scan_occluded_shots",
+           "AD_OCCLUDED_SHOTS", "OCCLUDED_TRUTHS", "DEFAULT_REGIONS", "limb_body_overlaps",
+           "scan_occluded_shots",
            "OccludedDrawingPair", "occluded_drawing_pairs", "evaluate_occluded_drawings",
            "main"]
 
@@ -585,6 +588,10 @@ AD_OCCLUDED_SHOTS = {
 #: Ground truths of :class:`OccludedDrawingPair`: the rest drawing deformed as one sheet into
 #: each pose, or cut into body parts moved rigidly (:mod:`~physlab.inbetween.cutout`).
 OCCLUDED_TRUTHS = ("sheet", "parts")
+#: Extent of the suggested regions of :class:`OccludedDrawingPair` (``extent`` of
+#: :func:`~physlab.inbetween.occlusion.suggest_occlusions`): ``"capsule"`` overlaps, or the
+#: limb's whole ``"contact"`` with the body.
+DEFAULT_REGIONS = "capsule"
 
 
 def _bone_capsules(skeleton):
@@ -759,7 +766,9 @@ class OccludedDrawingPair:
     does not have), overlapping suggestions merged; each merged region gets the T-junctions of
     :func:`~physlab.inbetween.occlusion.suggest_t_junctions` (its bones' capsules, the nearer
     bones by BVH depth as the occluder; ``t_junctions=False``: none, as before 2026-11-26);
-    joint depths from the BVH.
+    with ``regions="contact"`` a limb's region is grown to its contact with the body and
+    keeps :func:`~physlab.inbetween.occlusion.limb_contact`'s T-junctions (where it overlaps
+    no other region); joint depths from the BVH.
 
     Parameters
     ----------
@@ -773,17 +782,22 @@ class OccludedDrawingPair:
         0.6 dB at t = 0.5 and 1.6 dB over the sequence, README).
     truth : :data:`OCCLUDED_TRUTHS` ``"sheet"`` (default: the posed one-sheet template) or
         ``"parts"`` (the cut-out paper doll).
+    regions : ``"capsule"`` (the capsule overlaps) or ``"contact"`` (each limb's region grown
+        to its whole contact with the body, one region per limb with its own T-junctions:
+        ``suggest_occlusions(extent="contact")``, :func:`~physlab.inbetween.occlusion.
+        limb_contact`); default :data:`DEFAULT_REGIONS`.
 
     Raises
     ------
     ValueError naming the argument for an unknown character or motion, times outside the
-    motion, a bad size or truth; FileNotFoundError when the external data folder is missing.
+    motion, a bad size, truth or regions; FileNotFoundError when the external data folder is
+    missing.
     """
 
     kind = "occluded"
 
     def __init__(self, name, character, motion, t0, t1, size=256, t_junctions=True,
-                 rest_widths=False, truth="sheet"):
+                 rest_widths=False, truth="sheet", regions=DEFAULT_REGIONS):
         from ..datasets import ANIMATED_DRAWINGS
         from .retarget import (ANIMATED_DRAWINGS_MOTIONS, ANIMATED_DRAWINGS_START_FRAMES,
                                load_motion)
@@ -796,6 +810,7 @@ class OccludedDrawingPair:
         if isinstance(size, bool) or not isinstance(size, (int, np.integer)) or size < 64:
             raise ValueError(f"size must be an int ≥ 64 (px), got {size!r}")
         _check_truth(truth)
+        self.regions = _check_regions(regions)
         self.bvh = load_motion(motion)
         self.ref = ANIMATED_DRAWINGS_START_FRAMES[motion]
         for arg, t in (("t0", t0), ("t1", t1)):
@@ -894,10 +909,11 @@ class OccludedDrawingPair:
         out = []
         for key, sk in zip(self.keyframes(), (self.skeleton0, self.skeleton1)):
             fg = key[..., 3] > 0.5
-            pairs = {frozenset(o[:2]) for o in limb_body_overlaps(sk, self.rest, self.radius)}
-            sug = [o for o in suggest_occlusions(key, sk, radius=self.radius,
-                                                 mask=fg, widths=self.widths)
-                   if frozenset(o.label.split("/")) in pairs]
+            pairs = [o[:2] for o in limb_body_overlaps(sk, self.rest, self.radius)]
+            sug = suggest_occlusions(key, sk, radius=self.radius, mask=fg, widths=self.widths,
+                                     t_junctions=self.t_junctions and self.regions == "contact",
+                                     extent=self.regions,
+                                     pairs=pairs) if pairs else []
             # overlapping suggestions (one hand on torso and neck) become one region: the
             # layered template takes at most two layers per region
             if not sug:
@@ -908,16 +924,29 @@ class OccludedDrawingPair:
             regs = []
             for c in range(1, k + 1):
                 m = comps == c
-                names = [o.label for o in sug if (o.mask & m).any()]
-                if m.sum() >= 16:
+                hit = [o for o in sug if (o.mask & m).any()]
+                names = [o.label for o in hit]
+                if len(hit) == 1 and self.regions == "contact":   # its own T-junctions
+                    regs.append(Occlusion(m, hit[0].t_junctions, label=hit[0].label))
+                elif m.sum() >= 16:
                     tj = ()
                     if self.t_junctions:
-                        bones = [j for n in names for j in n.split("/")]
+                        bones = list(dict.fromkeys(j for n in names for p in n.split("+")
+                                                   for j in p.split("/")))
                         tj = suggest_t_junctions(m, sk, bones, self.radius, fg,
                                                  widths=self.widths)
                     regs.append(Occlusion(m, tj, label="+".join(names)))
             out.append(regs)
         return tuple(out)
+
+
+def _check_regions(regions):
+    from .occlusion import REGION_EXTENTS
+
+    if not isinstance(regions, str) or regions not in REGION_EXTENTS:
+        raise ValueError(f"regions must be one of {REGION_EXTENTS} (capsule overlaps, or the "
+                         f"limb's whole contact with the body), got {regions!r}")
+    return regions
 
 
 def _check_truth(truth):
@@ -928,7 +957,7 @@ def _check_truth(truth):
 
 
 def occluded_drawing_pairs(shots=None, size=256, t_junctions=True, rest_widths=False,
-                           truth="sheet"):
+                           truth="sheet", regions=DEFAULT_REGIONS):
     """:class:`OccludedDrawingPair` of every shot (default :data:`AD_OCCLUDED_SHOTS`)."""
     shots = AD_OCCLUDED_SHOTS if shots is None else shots
     if not isinstance(shots, dict) or not shots:
@@ -936,12 +965,13 @@ def occluded_drawing_pairs(shots=None, size=256, t_junctions=True, rest_widths=F
                          f"got {shots!r}")
     _check_truth(truth)
     return [OccludedDrawingPair(name, *shot, size=size, t_junctions=t_junctions,
-                                rest_widths=rest_widths, truth=truth)
+                                rest_widths=rest_widths, truth=truth, regions=regions)
             for name, shot in shots.items()]
 
 
 def evaluate_occluded_drawings(shots=None, size=256, n_frames=11, out=None, progress=True,
-                               t_junctions=True, rest_widths=False, truth="sheet", **options):
+                               t_junctions=True, rest_widths=False, truth="sheet",
+                               regions=DEFAULT_REGIONS, **options):
     """Occlusion evaluation on real drawings (issue 15): every :func:`occluded_drawing_pairs`
     pair through :func:`evaluate_pairs` — physlab with layered templates from the suggested
     occlusions, physlab as one sheet, cross-dissolve, flow — scored against the posed drawing.
@@ -957,6 +987,8 @@ def evaluate_occluded_drawings(shots=None, size=256, n_frames=11, out=None, prog
     t_junctions : bool, suggested T-junctions on the suggested regions
     (:class:`OccludedDrawingPair`). truth : ``"sheet"`` (the posed one-sheet drawing, default)
     or ``"parts"`` (the drawing cut into rigid parts; :class:`OccludedDrawingPair`).
+    regions : ``"capsule"`` or ``"contact"``, the suggested regions' extent
+    (:class:`OccludedDrawingPair`).
     options : passed to :func:`~physlab.inbetween.pipeline.inbetween`.
 
     Returns
@@ -975,7 +1007,7 @@ def evaluate_occluded_drawings(shots=None, size=256, n_frames=11, out=None, prog
                            "provide ../shared/data with animated_drawings/)"}
     if isinstance(n_frames, bool) or not isinstance(n_frames, (int, np.integer)) or n_frames < 3:
         raise ValueError(f"n_frames must be an int ≥ 3 (keys included), got {n_frames!r}")
-    pairs = occluded_drawing_pairs(shots, size, t_junctions, rest_widths, truth)
+    pairs = occluded_drawing_pairs(shots, size, t_junctions, rest_widths, truth, regions)
     sheets = None if out is None else Path(out) / "pairs"
     rows, middles = evaluate_pairs(pairs, n_frames=n_frames, progress=progress, sheets=sheets,
                                    middle=True, **options)
@@ -1461,6 +1493,10 @@ def _parser():
                    help="--occluded --source animated_drawings: suggested regions from capsules "
                         "as wide as each limb is drawn in the rest drawing (bone_widths) "
                         "instead of one radius for all bones")
+    p.add_argument("--regions", choices=("capsule", "contact"), default=DEFAULT_REGIONS,
+                   help="--occluded --source animated_drawings: suggested regions as capsule "
+                        "overlaps, or grown to the limb's whole contact with the body "
+                        f"(limb_contact; default {DEFAULT_REGIONS})")
     p.add_argument("--truth", choices=OCCLUDED_TRUTHS, default="sheet",
                    help="--occluded --source animated_drawings: the ground truth, 'sheet' (the "
                         "rest drawing deformed as one sheet into each pose, default) or "
@@ -1515,7 +1551,8 @@ def _main_occluded_drawings(args, n_frames):
                                    progress=not args.no_progress,
                                    texture_quality=args.texture_quality,
                                    t_junctions=not args.no_t_junctions,
-                                   rest_widths=args.rest_widths, truth=args.truth)
+                                   rest_widths=args.rest_widths, truth=args.truth,
+                                   regions=args.regions)
     if r["skipped"]:
         print(f"skipped AnimatedDrawings occlusions: {r['skipped']}")
         return
@@ -1524,7 +1561,8 @@ def _main_occluded_drawings(args, n_frames):
     print(r["physlab"])
     print(f"\nCD = Chamfer distance between dark pixels ×1e5. Occlusions suggested by "
           f"suggest_occlusions, T-junctions "
-          f"{'none' if args.no_t_junctions else 'by suggest_t_junctions'}, capsule radii "
+          f"{'none' if args.no_t_junctions else 'suggested'}, regions {args.regions}, "
+          f"capsule radii "
           f"{'the limbs drawn half-widths' if args.rest_widths else 'one for all bones'}"
           f", joint depths from the BVH. Ground truth: "
           f"{'the drawing cut into rigid parts' if args.truth == 'parts' else 'one sheet'}. "
@@ -1573,6 +1611,11 @@ def main(argv=None):
         raise ValueError(f"--source {args.source} is for --occluded; add --occluded")
     if args.truth != "sheet" and not (args.occluded and args.source == "animated_drawings"):
         raise ValueError(f"--truth {args.truth} is for --occluded --source animated_drawings; "
+                         "add them")
+    if args.regions != DEFAULT_REGIONS and not (args.occluded and
+                                                args.source == "animated_drawings"):
+        raise ValueError(f"--regions {args.regions} is for --occluded --source "
+                         "animated_drawings (the procedural pairs use their true regions); "
                          "add them")
     if isinstance(args.pairs, Path):
         _main_folder(args)

@@ -16,7 +16,10 @@ Inputs per keyframe (Sec. 4)
   :func:`bone_widths` of a drawing with free limbs gives each bone its drawn width instead of
   one capsule radius); with ``t_junctions=True``
   its regions carry :func:`suggest_t_junctions` (where the occluder's capsule outline meets the
-  other outlines on the region's boundary), a CPU substitute for the user's clicks.
+  other outlines on the region's boundary), a CPU substitute for the user's clicks. With
+  ``extent="contact"`` a limb's region grows to its whole contact with the body
+  (:func:`limb_contact`: along the limb's axis, where the drawing is wider than the limb; cut
+  across the limb where it leaves the body's outline), its T-junctions at that cut's corners.
 * Joint depths near the regions (:attr:`Skeleton.depth`, smaller = nearer): they decide
   which layer is in front after the topology is found (Sec. 5.1).
 * Where more than two parts overlap (a forearm in front of the torso in front of the other
@@ -99,7 +102,8 @@ __all__ = ["Occlusion", "OcclusionRegion", "LayeredTemplate", "valid_assignments
            "count_valid_assignments", "refine_through_t_junctions", "switch_points", "incise",
            "sew_pockets",
            "build_layered_template", "suggest_occlusions", "suggest_t_junctions", "bone_widths",
-           "save_occlusions", "load_occlusions", "limb_overlaps"]
+           "save_occlusions", "load_occlusions", "limb_overlaps", "limb_chain", "limb_contact",
+           "REGION_EXTENTS"]
 
 #: A T-junction may lie at most this far (px) from its region's outline.
 T_JUNCTION_TOLERANCE = 6.0
@@ -1615,7 +1619,7 @@ def suggest_t_junctions(region, skeleton, bones, radius, mask, front=None, min_r
 
 
 def suggest_occlusions(image, skeleton, radius=None, mask=None, predictor=None,
-                       t_junctions=False, widths=None):
+                       t_junctions=False, widths=None, extent="capsule", pairs=None):
     """Suggested occlusion regions of a keyframe: the CPU substitute for the paper's mask
     network (Sec. 4.1), for the user to accept or edit.
 
@@ -1636,8 +1640,23 @@ def suggest_occlusions(image, skeleton, radius=None, mask=None, predictor=None,
     have no silhouette of their own to measure, hence the other drawing). ``radius`` still
     decides which bones overlap (:func:`limb_overlaps`).
 
+    ``extent="contact"`` grows each region to the limb's whole contact with the body
+    (:func:`limb_contact` with ``up=False``: the overlapping bone and the bones below it, e.g.
+    forearm and hand): of the two bones the one deeper in the hierarchy is the limb, its
+    capsule overlaps with all partners are the seed, and the region is the limb's pixels along
+    the axis intervals where the drawing is wider than the limb, cut across the limb where it
+    leaves the body's outline — one region per limb (labels joined by ``"+"``), with
+    :func:`limb_contact`'s T-junctions when ``t_junctions=True``. A limb with no such contact
+    keeps its capsule overlaps. ``pairs`` (iterable of bone-name pairs) keeps only those of
+    :func:`limb_overlaps`' pairs (e.g. a limb on the body that the drawing does not have).
+
     Returns list of :class:`Occlusion` (labels ``"<joint a>/<joint b>"``, bones named by their
     end joints).
+
+    Raises
+    ------
+    ValueError naming the argument for a bad ``t_junctions``, ``mask``, ``widths``, ``extent``
+    or ``pairs``.
     """
     if predictor is not None:
         return list(predictor(image, skeleton))
@@ -1651,6 +1670,21 @@ def suggest_occlusions(image, skeleton, radius=None, mask=None, predictor=None,
     if radius is None:
         radius = 0.06 * max(np.ptp(skeleton.xy[:, 1]), np.ptp(skeleton.xy[:, 0]), 1.0)
     r = _check_widths(widths, skeleton)
+    if not isinstance(extent, str) or extent not in REGION_EXTENTS:
+        raise ValueError(f"extent must be one of {REGION_EXTENTS}, got {extent!r}")
+    overlaps = limb_overlaps(skeleton, radius)
+    if pairs is not None:
+        try:
+            keep = {frozenset(p) for p in pairs}
+        except TypeError:
+            raise ValueError(f"pairs must be an iterable of (joint, joint) bone pairs, got "
+                             f"{pairs!r}") from None
+        if any(len(p) != 2 for p in keep):
+            raise ValueError(f"pairs must hold pairs of two distinct joint names, got {pairs!r}")
+        for p in keep:
+            for j in p:
+                _bone_of(skeleton, j, "pairs")
+        overlaps = [o for o in overlaps if frozenset(o) in keep]
     yy, xx = np.mgrid[0:H, 0:W].astype(float)
     P = np.stack([xx, yy], axis=-1)
 
@@ -1664,12 +1698,46 @@ def suggest_occlusions(image, skeleton, radius=None, mask=None, predictor=None,
         return caps[joint]
 
     out = []
-    for ja, jb in limb_overlaps(skeleton, radius):
+    for ja, jb in overlaps:
         m = capsule(ja) & capsule(jb) & fg
         if m.sum() >= 16:
             tj = (suggest_t_junctions(m, skeleton, (ja, jb), radius, fg, widths=r)
                   if t_junctions else ())
             out.append(Occlusion(m, tj, label=f"{ja}/{jb}"))
+    if extent == "capsule":
+        return out
+    return _contact_regions(out, skeleton, fg, radius, r, t_junctions)
+
+
+def _contact_regions(capsule_regions, skeleton, fg, radius, widths, t_junctions):
+    """:func:`suggest_occlusions`' ``extent="contact"``: the capsule overlaps grouped by their
+    limb (the bone of each pair deeper in the hierarchy) and grown by :func:`limb_contact`;
+    returns list of :class:`Occlusion` (a limb without contact keeps its capsule regions)."""
+    def level(j):
+        n, i = 0, skeleton.index(j)
+        while skeleton.parents[i] >= 0:
+            i, n = skeleton.parents[i], n + 1
+        return n
+
+    groups = {}
+    for o in capsule_regions:
+        ja, jb = o.label.split("/")
+        limb = ja if level(ja) >= level(jb) else jb
+        groups.setdefault(limb, []).append(o)
+    out = []
+    for limb, regs in groups.items():
+        seed = np.any([o.mask for o in regs], axis=0)
+        # the limb's bone and the bones below it only (up=False): with the upper arm in the
+        # region too, a forearm folded back across the chest (AnimatedDrawings char1, zombie)
+        # has the upper arm's midpoint handle fall on the body's side of the layers' depth split
+        # (Sec. 5.1's largest gap), and the template explodes (handle error 36 px, README)
+        region, tj = limb_contact(skeleton, limb, fg, widths.get(limb, radius), seed=seed,
+                                  up=False)
+        if not region.any():
+            out += regs
+            continue
+        out.append(Occlusion(region, tj if t_junctions else (),
+                             label="+".join(o.label for o in regs)))
     return out
 
 
@@ -1721,3 +1789,179 @@ def _check_widths(widths, skeleton):
                 or not np.isfinite(v) or v <= 0:
             raise ValueError(f"widths[{j!r}] must be a positive number of px, got {v!r}")
     return {j: float(v) for j, v in widths.items()}
+
+
+# -------------------------------------------------------------- contact of a limb (regions)
+#: Suggested region extents of :func:`suggest_occlusions`: the overlap of two capsules, or the
+#: limb's whole contact with the wider drawing under it (:func:`limb_contact`).
+REGION_EXTENTS = ("capsule", "contact")
+
+
+def limb_chain(skeleton, joint):
+    """The limb a bone belongs to: the bones from the limb's root to its tip, through ``joint``.
+
+    Bones are named by their end joint. From ``joint``'s bone the chain goes up through the
+    parent bone while neither of that bone's joints has another child and its start joint is
+    not the skeleton's root (it stops below a branching joint: chest, pelvis, torso), and down
+    through single children to the tip. For a forearm (``"left_hand"``, elbow → hand) this is
+    upper arm + forearm (+ hand bones), for a shin thigh + shin (+ foot); a bone that starts
+    at a branching joint and has none below it (the chest) is a chain of one.
+
+    Parameters
+    ----------
+    skeleton : Skeleton. joint : str, a non-root joint name (the bone it ends).
+
+    Returns
+    -------
+    list of joint names, proximal to distal, each naming the bone it ends.
+
+    Raises
+    ------
+    ValueError naming ``joint`` for an unknown joint or the root.
+    """
+    _bone_of(skeleton, joint, "joint")
+    parents = np.asarray(skeleton.parents)
+    n_child = np.bincount(parents[parents >= 0], minlength=len(parents))
+    j = skeleton.index(joint)
+    chain = [j]
+    while True:   # up: bone p = (q, p) joins while neither p nor q branches (q no root)
+        p = parents[chain[0]]
+        q = parents[p] if p >= 0 else -1
+        if q < 0 or parents[q] < 0 or n_child[p] != 1 or n_child[q] != 1:
+            break
+        chain.insert(0, p)
+    while n_child[chain[-1]] == 1:   # down through single children
+        chain.append(int(np.flatnonzero(parents == chain[-1])[0]))
+    return [skeleton.names[i] for i in chain]
+
+
+def _chain_coordinates(P, polyline):
+    """Distance of points ``P`` (..., 2) to a polyline (n, 2) and the arclength (px) of their
+    nearest point on it: ``(d (...), s (...), length)``."""
+    A, B = polyline[:-1], polyline[1:]
+    L = np.linalg.norm(B - A, axis=1)
+    s0 = np.r_[0.0, np.cumsum(L)]
+    d = np.full(P.shape[:-1], np.inf)
+    s = np.zeros(P.shape[:-1])
+    for a, b, l, start in zip(A, B, L, s0):
+        ab = b - a
+        t = np.clip(((P - a) @ ab) / max(float(ab @ ab), 1e-12), 0.0, 1.0)
+        dk = np.linalg.norm(P - (a + t[..., None] * ab), axis=-1)
+        closer = dk < d
+        d = np.where(closer, dk, d)
+        s = np.where(closer, start + t * l, s)
+    return d, s, float(s0[-1])
+
+
+def limb_contact(skeleton, joint, mask, width, seed=None, ratio=1.0, min_run=4, up=True):
+    """The whole contact of a limb with what it is drawn over: a suggested occlusion region
+    reaching the body's outline where the limb crosses it, with its T-junctions.
+
+    Heuristic (a CPU stand-in for the paper's mask network and the user's clicks, Sec. 4.1).
+    The limb is :func:`limb_chain` of ``joint``'s bone (``up=False``: from that bone down),
+    drawn as a capsule of half-width ``width`` around its bones. Along the limb's axis (1 px steps) the foreground's distance to
+    its outline (a distance transform of ``mask``) is the limb's own half-width where the limb
+    is free, and more where it lies over something wider — the body. The axis intervals where
+    that distance exceeds ``ratio · width`` are the contact; the interval(s) that meet ``seed``
+    (e.g. the capsule overlap of :func:`suggest_occlusions`) are kept, and the region is the
+    foreground within ``width`` of the axis whose nearest axis point lies in them: cut square
+    across the limb where the limb leaves the body's outline, not at the end of a capsule.
+
+    T-junctions: each point of the region's outline is labelled "occluder" where it lies on the
+    limb's capsule outline (distance to the axis ≥ ``width`` − 1.5 px; the limb's sides and its
+    tip), "other" inside it (a cut across the limb where it leaves the body, the foreground
+    silhouette) and on the cap of the limb's root joint (the limb stays attached there); the
+    T-junctions are where the label switches (:func:`switch_points`, runs shorter than
+    ``min_run`` absorbed): the corners where the limb's outline enters or leaves the body.
+
+    Parameters
+    ----------
+    skeleton : Skeleton (pixels). joint : str, a limb bone (named by its end joint).
+    mask : (H, W) bool, the key's foreground.
+    width : float > 0, the limb's half-width (px).
+    seed : None or (H, W) bool; None keeps every contact interval.
+    ratio : float > 0, how much wider than ``width`` the drawing must be to count as contact.
+    min_run : int ≥ 1, shortest run of outline points (≈ px) that counts.
+    up : bool, the whole :func:`limb_chain` (default) or only ``joint``'s bone and the bones
+        below it (the limb's root cap is then the bone's start joint, e.g. the elbow).
+
+    Returns
+    -------
+    ``(region (H, W) bool, t_junctions (k, 2) float (x, y), k even)``; an all-False region and
+    no T-junctions when the limb touches nothing (or no contact meets ``seed``).
+
+    Raises
+    ------
+    ValueError naming the argument for an unknown joint, a bad mask, seed, width, ratio,
+    min_run or up.
+    """
+    from scipy import ndimage
+    from skimage.measure import find_contours
+
+    fg = np.asarray(mask)
+    if fg.ndim != 2 or fg.dtype != bool or not fg.any():
+        raise ValueError(f"mask must be a non-empty (H, W) bool array, got {fg.dtype} "
+                         f"{fg.shape}")
+    for arg, v in (("width", width), ("ratio", ratio)):
+        if isinstance(v, bool) or not isinstance(v, (int, float, np.number)) \
+                or not np.isfinite(v) or v <= 0:
+            raise ValueError(f"{arg} must be a positive number, got {v!r}")
+    if isinstance(min_run, bool) or not isinstance(min_run, (int, np.integer)) or min_run < 1:
+        raise ValueError(f"min_run must be an int >= 1, got {min_run!r}")
+    if seed is not None:
+        seed = np.asarray(seed)
+        if seed.shape != fg.shape or seed.dtype != bool:
+            raise ValueError(f"seed must be None or a (H, W) bool array of the mask's shape "
+                             f"{fg.shape}, got {seed.dtype} {seed.shape}")
+    if not isinstance(up, (bool, np.bool_)):
+        raise ValueError(f"up must be True or False, got {up!r}")
+    chain = limb_chain(skeleton, joint)
+    if not up:
+        chain = chain[chain.index(joint):]
+    ids = [skeleton.index(j) for j in chain]
+    poly = skeleton.xy[[skeleton.parents[ids[0]]] + ids].astype(float)     # (n + 1, 2)
+    H, W = fg.shape
+    empty = (np.zeros((H, W), bool), np.zeros((0, 2)))
+    # the drawing's half-width along the limb's axis
+    edt = ndimage.distance_transform_edt(fg)
+    _, _, length = _chain_coordinates(poly[:1], poly)
+    if length < 1.0:
+        return empty
+    s_ax = np.arange(0.0, length + 0.5, 1.0)
+    seg = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(poly, axis=0), axis=1))]
+    axis = np.stack([np.interp(s_ax, seg, poly[:, 0]), np.interp(s_ax, seg, poly[:, 1])], 1)
+    ij = np.round(axis[:, ::-1]).astype(int)
+    inside = (ij >= 0).all(1) & (ij < [H, W]).all(1)
+    half = np.zeros(len(s_ax))
+    half[inside] = edt[ij[inside, 0], ij[inside, 1]]
+    touch = half > ratio * float(width)
+    if not touch.any():
+        return empty
+    # contact intervals [s_a, s_b] along the axis
+    edges = np.flatnonzero(np.diff(np.r_[0, touch.astype(np.int8), 0]))
+    runs = [(s_ax[a], s_ax[b - 1]) for a, b in zip(edges[::2], edges[1::2])]
+    yy, xx = np.mgrid[0:H, 0:W].astype(float)
+    d, s, _ = _chain_coordinates(np.stack([xx, yy], axis=-1), poly)
+    near = fg & (d < width)
+    if seed is not None:
+        if not (seed & near).any():
+            return empty
+        ss = s[seed & near]
+        runs = [(a, b) for a, b in runs if b >= ss.min() - 1.0 and a <= ss.max() + 1.0]
+        if not runs:
+            return empty
+    region = near & np.any([(s >= a - 0.5) & (s <= b + 0.5) for a, b in runs], axis=0)
+    if seed is not None:
+        region |= seed
+    # keep the component(s) touching the seed (or all)
+    lab, n = ndimage.label(region)
+    if n > 1:
+        keep = np.unique(lab[seed & region]) if seed is not None else np.arange(1, n + 1)
+        region = np.isin(lab, keep[keep > 0])
+    if region.sum() < 16:
+        return empty
+    contour = max(find_contours(np.pad(region, 1).astype(float), 0.5), key=len)
+    yx = contour[:-1] - 1.0
+    dc, sc, _ = _chain_coordinates(yx[:, ::-1], poly)
+    on_limb = (dc >= width - 1.5) & (sc > 0.5)     # the limb's sides and tip, not its root cap
+    return region, switch_points(yx[:, ::-1], on_limb, int(min_run))
