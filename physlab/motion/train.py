@@ -116,6 +116,7 @@ __all__ = [
     "TrainConfig",
     "action_weights",
     "condition_batch",
+    "recon_loss",
     "control_losses",
     "export_weights",
     "hash_encoder",
@@ -196,6 +197,8 @@ class TrainConfig:
     max_clips: int = 0              # use only the first k training clips (0 = all)
     window_stride: int = 10         # frames between window starts (40-frame windows)
     mirror: bool = False            # add every window's mirror image (dataset.mirror_windows)
+    snr_cap: float = 0.0            # > 0: weight each window's x0 loss by min(1/(1 − ᾱ_t), cap)
+                                    # (recon_loss; with --skip); 0 = plain x0 MSE
     balance: float = 0.0            # draw a window with weight (windows of its action)^-balance:
                                     # 0 = uniform, 1 = every action equally often (action_weights)
     text_encoder: str = "minilm"    # "minilm" (text.ActionEncoder) | "hash" (tests: fake)
@@ -225,7 +228,8 @@ class TrainConfig:
                      "lambda_vel", "warmup", "seed", "num_threads", "max_clips",
                      "cond_drop_prob", "drop_keypose", "drop_trajectory", "single_joint",
                      "lambda_match",
-                     "lambda_recon", "lambda_contrast", "tau", "sketch_noise", "balance"):
+                     "lambda_recon", "lambda_contrast", "tau", "sketch_noise", "balance",
+                     "snr_cap"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
                 raise ValueError(f"{name} must be a finite number, got {v!r}")
@@ -242,6 +246,10 @@ class TrainConfig:
         if not 0 <= self.num_threads <= 256:
             raise ValueError(f"num_threads must be in 0..256 (0 = automatic), got "
                              f"{self.num_threads}")
+        if self.snr_cap and not (self.snr_cap >= 1 and self.prediction == "sample"):
+            raise ValueError(f"snr_cap must be 0 (off) or >= 1 with --prediction sample (it "
+                             f"weights the x0 loss), got {self.snr_cap} with --prediction "
+                             f"{self.prediction}")
         if not 0 <= self.balance <= 1:
             raise ValueError(f"balance must be in [0, 1] (0 = uniform sampling, 1 = every "
                              f"action equally often), got {self.balance}")
@@ -349,6 +357,28 @@ def prepare_data(cfg: TrainConfig, stats: FeatureStats | None = None, cache=None
             "train_takes": train_takes,
             "sample_weights": torch.tensor(action_weights(win.content, cfg.balance),
                                            dtype=torch.float64)}
+
+
+def recon_loss(out, target, t, scheduler, snr_cap=0.0):
+    """The denoising loss of Eq. (5) on the network output, optionally weighted per window.
+
+    ``snr_cap = 0``: ``mean ‖out − target‖²``. ``snr_cap > 0`` (x₀-prediction): window ``b``'s
+    squared error is weighted by ``min(1 / (1 − ᾱ_t), snr_cap) = min(SNR_t + 1, cap)``. With
+    the skip connection (``DenoiserConfig.skip``: ``x̂₀ = √ᾱ x_t + √(1 − ᾱ) F``) the plain x₀
+    loss weights ``F``'s error by ``1 − ᾱ_t``, almost nothing near t = 0, so the network never
+    learns to cancel the noise that the skip lets through; ``1 / (1 − ᾱ_t)`` is EDM's weight
+    ``1 / c_out²`` (the v-prediction loss), and the cap keeps the lowest levels from dominating,
+    as Min-SNR-γ does (Hang et al. 2023, Eq. (8)). Weights are ≥ 1, so the noisiest levels keep
+    the plain x₀ loss.
+
+    out, target : (B, T, D); t : (B,) int64 levels; scheduler : NoiseScheduler.
+    Returns a scalar tensor.
+    """
+    if not snr_cap:
+        return F.mse_loss(out, target)
+    abar = scheduler.alphas_cumprod.to(out.dtype)[t]                        # (B,)
+    w = torch.clamp(1.0 / (1.0 - abar), max=float(snr_cap))                 # (B,)
+    return (w * ((out - target) ** 2).mean(dim=(1, 2))).mean()
 
 
 def action_weights(actions, balance=0.0):
@@ -661,7 +691,7 @@ def train(**kwargs):
             target = sched.training_target(x0, noise, t)                         # ε, v or x0
             if cfg.stage == "base":
                 out_ = net(x_t, t, a, drop)
-                loss = F.mse_loss(out_, target)
+                loss = recon_loss(out_, target, t, sched, cfg.snr_cap)
                 parts = {}
                 if cfg.lambda_vel > 0:
                     l_vel = velocity_loss(sched.split_output(out_, x_t, t)[0], x0)
@@ -690,7 +720,7 @@ def train(**kwargs):
                 net_cond = ({**cond, **sketch_batch(cond, rng, noise=cfg.sketch_noise)}
                             if cfg.direct_2d else cond)
                 out_ = net(x_t, t, a, net_cond, drop)
-                l_rec = F.mse_loss(out_, target)                                 # Eq. (5)
+                l_rec = recon_loss(out_, target, t, sched, cfg.snr_cap)          # Eq. (5)
                 x0_hat, _ = sched.split_output(out_, x_t, t)                     # Eq. (7)
                 l_tr, l_key = control_losses(x0_hat, joints_all[idx], cond, mean, std,
                                              model_cfg.representation)

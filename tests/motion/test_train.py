@@ -382,7 +382,8 @@ def test_skip_connection_trains_saves_and_reloads_its_schedule(real_data, tmp_pa
     with pytest.raises(ValueError, match="--skip needs --prediction sample"):
         train(stage="base", out=str(tmp_path / "e.pt"), steps=1, skip=True,
               prediction="epsilon", smooth_basis=0, **SMOKE)
-    res = train(stage="base", out=str(tmp_path / "skip.pt"), steps=2, skip=True, **SMOKE)
+    res = train(stage="base", out=str(tmp_path / "skip.pt"), steps=2, skip=True, snr_cap=10.0,
+                **SMOKE)
     a = load_model(res["path"])
     assert a["config"].skip and a["model"].skip_scale.numel() == a["config"].max_timesteps
     np.testing.assert_allclose(a["model"].skip_scale.double() ** 2,
@@ -408,3 +409,25 @@ def test_paths_are_stored_as_strings():
                       text_cache=Path("cache.npz"), data_root=Path("data"))
     assert all(type(getattr(cfg, k)) is str
                for k in ("base_ckpt", "out", "text_cache", "data_root"))
+
+
+def test_recon_loss_weights_low_noise_levels_up_to_the_cap():
+    """``snr_cap = 0`` is the plain MSE; with a cap each window's MSE is weighted by
+    ``min(1 / (1 − ᾱ_t), cap)``: 1 at the noisiest level, the cap near t = 0."""
+    from physlab.motion.diffusion import NoiseScheduler, SchedulerConfig
+    from physlab.motion.train import recon_loss
+
+    sched = NoiseScheduler(SchedulerConfig())
+    g = torch.Generator().manual_seed(0)
+    out, target = torch.randn(3, 4, 5, generator=g), torch.randn(3, 4, 5, generator=g)
+    t = torch.tensor([0, 500, 999])
+    mse = ((out - target) ** 2).mean(dim=(1, 2))
+    assert torch.allclose(recon_loss(out, target, t, sched), mse.mean())
+    abar = sched.alphas_cumprod[t]
+    w = torch.minimum(1 / (1 - abar), torch.tensor(10.0, dtype=torch.float64)).float()
+    assert torch.allclose(recon_loss(out, target, t, sched, 10.0), (w * mse).mean())
+    assert w[0] == 10.0 and 1.0 < w[2] < 1.01             # capped near 0, ~1 at the noisiest
+    with pytest.raises(ValueError, match="snr_cap"):
+        TrainConfig(snr_cap=0.5)
+    with pytest.raises(ValueError, match="snr_cap"):
+        TrainConfig(snr_cap=5.0, prediction="epsilon")
