@@ -569,6 +569,65 @@ def text_adherence(control, contents=ADHERENCE_CONTENTS, seeds=4, steps=50, guid
             "seeds": int(seeds), "steps": int(steps), "guidance": float(guidance)}
 
 
+#: Noise levels of :func:`detail_kept` (None: pure noise, as in sampling).
+DETAIL_LEVELS = (20, 150, 300, 600, 900, None)
+
+
+def detail_kept(control, content="wave-right-hand", levels=DETAIL_LEVELS, windows=8,
+                statistic="wrist_travel_m", steps=40, guidance=2.5, seed=0, data_root=None,
+                progress=True):
+    """How much of a real motion's detail the text-only denoiser keeps when it starts from
+    noise level t: held-out (take 002) windows of ``content`` are noised to each level,
+    denoised back by DDIM with the action's text (all its clips when take 002 has none) (:meth:`Generator.denoise_from`), and
+    ``statistic`` (a column of :func:`motion_statistics`) is compared with the real windows'.
+    A well-fit denoiser keeps the statistic at low levels (the clip is still there) and a
+    text-only sample (None) should reach it too; a damped one loses it already at t = 20.
+
+    Returns dict: ``real`` (mean statistic of the chosen windows), ``levels`` {level or
+    "noise": mean statistic after denoising}, ``content``, ``statistic``, ``windows``,
+    ``held_out`` (False when take 002 has no clip of the action and all takes were used).
+    """
+    from tqdm.auto import tqdm
+
+    if content not in ACTION_PHRASES:
+        raise ValueError(f"content must be one of {sorted(ACTION_PHRASES)}, got {content!r}")
+    if statistic not in STATISTICS:
+        raise ValueError(f"statistic must be one of {STATISTICS}, got {statistic!r}")
+    if isinstance(windows, bool) or not isinstance(windows, (int, np.integer)) or windows < 1:
+        raise ValueError(f"windows must be an integer >= 1, got {windows!r}")
+    gen = _load(control, "--control", need_control=False)
+    clips = load_clips(data_root, contents=[content])
+    test = [c for c in clips if c.take in TEST_TAKES]      # held out; else (an action the take
+    win = make_windows(test or clips, length=WINDOW_LENGTH,  # lacks) every clip of it
+                       stride=WINDOW_STRIDE)
+    rng = np.random.default_rng(seed)
+    J = win.joints[rng.choice(len(win.joints), min(windows, len(win.joints)), replace=False)]
+    col = STATISTICS.index(statistic)
+    text = action_text(content)
+    out = {}
+    for level in tqdm(list(levels), desc="detail kept", disable=not progress):
+        got = [gen.denoise_from(j, level, text, noise_seed=seed + i, steps=steps,
+                                guidance_scale=guidance) for i, j in enumerate(J)]
+        out["noise" if level is None else int(level)] = float(
+            motion_statistics(np.stack(got))[:, col].mean())
+    return {"real": float(motion_statistics(J)[:, col].mean()), "levels": out,
+            "content": content, "statistic": statistic, "windows": len(J),
+            "held_out": bool(test)}
+
+
+def format_detail(res):
+    """One-line table of :func:`detail_kept`."""
+    keys = list(res["levels"])
+    head = ["real", *[f"from t = {k}" if k != "noise" else "from noise" for k in keys]]
+    vals = [res["real"], *res["levels"].values()]
+    which = ("held-out windows" if res.get("held_out", True)
+             else "windows (all takes: take 002 has none)")
+    return "\n".join([f"{res['statistic']} of {res['windows']} '{res['content']}' {which}, "
+                      f"denoised back (text only):", "",
+                      "| " + " | ".join(head) + " |", "|" + "---|" * len(head),
+                      "| " + " | ".join(f"{v:.4f}" for v in vals) + " |"])
+
+
 def format_adherence(res):
     """Markdown table of :func:`text_adherence` (real mean / generated mean per statistic)."""
     head = ["action text", "real windows", "forward (m) real / gen", "left (m) real / gen",
@@ -1000,6 +1059,11 @@ def _parser():
                    help="also run the text-adherence check of the text-only generator")
     p.add_argument("--adherence-seeds", type=int, default=4,
                    help="clips per action text in the adherence check (default 4)")
+    p.add_argument("--detail", default=None, metavar="CONTENT",
+                   help="how much of CONTENT's real motion (e.g. wave-right-hand) the text-only "
+                        "denoiser keeps from noise levels 20..900 and from pure noise")
+    p.add_argument("--detail-statistic", default="wrist_travel_m", choices=STATISTICS,
+                   help="what --detail measures (default wrist_travel_m; forward_m for walks)")
     p.add_argument("--no-progress", action="store_true", help="no progress bars")
     p.add_argument("--num-threads", type=int, default=1,
                    help="torch threads (default 1: one clip at a time samples fastest on one "
@@ -1072,6 +1136,12 @@ def main(argv=None):
                     foot_lock=not args.no_foot_lock, frequencies=args.frequencies,
                     guidance_variants=args.guidance_variants,
                     evaluator=None if args.no_evaluator else args.evaluator)
+    if args.detail is not None:
+        print(format_detail(detail_kept(args.control, content=args.detail,
+                                        statistic=args.detail_statistic,
+                                        progress=not args.no_progress,
+                                        data_root=args.data_root)))
+        print()
     adherence = None
     if args.adherence:
         adherence = text_adherence(args.control, seeds=args.adherence_seeds,

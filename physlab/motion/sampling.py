@@ -53,7 +53,7 @@ from .dataset import TRAJECTORY_JOINT_NAMES, TRAJECTORY_JOINTS
 from .conditions import KEYPOSE_AT, N_FRAMES, build_condition, build_sketch
 from .diffusion import classifier_free_guidance
 from .body import LEG_CHAINS, clip_bone_lengths, constrain_body
-from .features import ABS_PELVIS, decode_motion
+from .features import ABS_PELVIS, decode_motion, encode_motion
 from .model import ControlledDenoiser, features_to_joints_torch, low_pass_matrix
 from .skeleton import JOINT_NAMES, PARENTS
 
@@ -729,6 +729,50 @@ class Generator:
             raise FloatingPointError(f"sampling with {self.path} produced NaN/inf joints; "
                                      f"the checkpoint may be diverged")
         return (joints, feats) if return_features else joints
+
+    def denoise_from(self, joints, level, action, noise_seed=0, steps=None,
+                     guidance_scale=TEXT_GUIDANCE, frequencies=None):
+        """A real clip noised to ``level`` and denoised back, text only: how much of its
+        detail the network keeps (the diagnostic of :func:`~physlab.motion.evaluate.detail_kept`).
+
+        ``joints`` (N, 22, 3) canonical clip; ``level`` an int in [0, T) — the clip's features
+        are noised to it by the forward process, q(x_t | x₀) — or None: start from pure noise
+        as :meth:`__call__` does (the clip is then ignored); a DDIM step from ``level`` and
+        the steps of a ``steps``-step schedule below it then run with text guidance ``guidance_scale`` for
+        ``action``, keeping ``frequencies`` DCT frequencies (default: the text-only
+        default). No path low-pass, no body constraints: the network's own result.
+        Returns the (N, 22, 3) joints decoded from the last x̂₀."""
+        J = np.asarray(joints, dtype=float)
+        N = self.config.n_joint_frames
+        if J.shape != (N, 22, 3) or not np.all(np.isfinite(J)):
+            raise ValueError(f"joints must be a finite ({N}, 22, 3) array, got shape {J.shape}")
+        T = self.scheduler.num_train_timesteps
+        if level is not None and (isinstance(level, bool)
+                                  or not isinstance(level, (int, np.integer))
+                                  or not 0 <= level < T):
+            raise ValueError(f"level must be None (pure noise) or an integer in [0, {T}), got "
+                             f"{level!r}")
+        timesteps = self.scheduler.set_timesteps(int(steps or DEFAULT_STEPS))
+        x0 = torch.tensor(self.stats.normalize(encode_motion(J, self.config.representation,
+                                                             fps=20)),
+                          dtype=torch.float32)[None]                        # (1, T, D)
+        noise = torch.randn(x0.shape, generator=torch.Generator().manual_seed(int(noise_seed)))
+        if level is None:
+            x = noise
+        else:
+            x = self.scheduler.add_noise(x0, noise, torch.tensor([int(level)]))
+            timesteps = torch.cat([torch.tensor([int(level)]),
+                                   timesteps[timesteps < int(level)]])       # start at level
+        a = torch.tensor(self.text_cache.get(action), dtype=torch.float32)[None]
+        K = self.config.smooth_basis
+        k = min(TEXT_FREQUENCIES, K) if frequencies is None and K else frequencies
+        with torch.no_grad(), self._frequencies(k):
+            for i, t in enumerate(timesteps.tolist()):
+                t_prev = int(timesteps[i + 1]) if i + 1 < len(timesteps) else -1
+                out = self._predict(x, torch.tensor([t]), a, None, float(guidance_scale))
+                x, x0_hat = self.scheduler.ddim_step(out, t, t_prev, x)
+        feats = self.stats.denormalize(x0_hat[0].double().numpy())
+        return decode_motion(feats, self.config.representation)
 
 
 # ----------------------------------------------------------------------------- generate()

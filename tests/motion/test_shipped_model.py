@@ -246,3 +246,41 @@ def test_the_shipped_lifter_lifts_a_drawing_towards_its_3d_condition(real_data):
             naive.append(np.linalg.norm(flat - true, axis=-1).mean())
     assert np.mean(errs) < 0.6 * np.mean(naive), (np.mean(errs), np.mean(naive))
 
+
+
+def test_denoise_from_keeps_the_clip_at_low_noise_and_forgets_it_from_pure_noise(gen,
+                                                                                  real_data):
+    """:meth:`Generator.denoise_from` noises a real clip to a level and denoises it back: at
+    level 0 the shipped network returns a clip near the given one (mean joint error 0.15 m,
+    measured 2026-11-26: the damping README's issue-12 section describes; a base with the skip
+    connection, 0.02 m), from pure noise one of its own (0.54 m)."""
+    win = make_windows(split_by_take(load_clips(contents=["walk"]))[1], length=40, stride=40)
+    J = win.joints[0]
+    near = gen.denoise_from(J, 0, "a person walks", guidance_scale=1.0)
+    far = gen.denoise_from(J, None, "a person walks", guidance_scale=1.0)
+    err = lambda X: np.linalg.norm(X - J, axis=-1).mean()                # noqa: E731
+    assert err(near) < 0.2 and err(near) < 0.5 * err(far)
+    for bad, match in (((J, 1000), "level"), ((J, -1), "level"), ((J, 2.5), "level"),
+                       ((J[:10], 5), "joints must be")):
+        with pytest.raises(ValueError, match=match):
+            gen.denoise_from(*bad, "a person walks")
+
+
+def test_detail_kept_reports_each_level(real_data):
+    """:func:`detail_kept` measures the asked statistic on windows of the asked action, each
+    level on its own (the same value whatever other levels are asked), noise apart."""
+    from physlab.motion.evaluate import detail_kept, format_detail
+
+    kw = {"content": "walk-back", "windows": 2, "statistic": "forward_m", "steps": 10,
+          "progress": False}
+    res = detail_kept(DEFAULT_CHECKPOINT, levels=(20, None), **kw)
+    assert set(res["levels"]) == {20, "noise"} and res["windows"] == 2
+    assert res["real"] < -0.5                                          # walks backwards
+    assert detail_kept(DEFAULT_CHECKPOINT, levels=(20,), **kw)["levels"][20] == \
+        res["levels"][20]
+    assert res["levels"][20] != res["levels"]["noise"]
+    assert "from noise" in format_detail(res)
+    with pytest.raises(ValueError, match="statistic"):
+        detail_kept(DEFAULT_CHECKPOINT, statistic="speed")
+    with pytest.raises(ValueError, match="content"):
+        detail_kept(DEFAULT_CHECKPOINT, content="juggle")
