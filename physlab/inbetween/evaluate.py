@@ -786,18 +786,25 @@ class OccludedDrawingPair:
         to its whole contact with the body, one region per limb with its own T-junctions:
         ``suggest_occlusions(extent="contact")``, :func:`~physlab.inbetween.occlusion.
         limb_contact`); default :data:`DEFAULT_REGIONS`.
+    up : bool, with ``regions="contact"`` grow a limb's region along the whole limb, upper arm
+        included (``suggest_occlusions(up=True)``; default False: from the overlapping bone
+        down).
+    by_limb : bool, with ``regions="contact"`` put each region's limb handles on one layer, by
+        bone (``suggest_occlusions(by_limb=True)``, :attr:`~physlab.inbetween.occlusion.
+        Occlusion.limb`) instead of splitting them at the largest depth gap (default False).
 
     Raises
     ------
     ValueError naming the argument for an unknown character or motion, times outside the
-    motion, a bad size, truth or regions; FileNotFoundError when the external data folder is
-    missing.
+    motion, a bad size, truth, regions, up or by_limb; FileNotFoundError when the external data
+    folder is missing.
     """
 
     kind = "occluded"
 
     def __init__(self, name, character, motion, t0, t1, size=256, t_junctions=True,
-                 rest_widths=False, truth="sheet", regions=DEFAULT_REGIONS):
+                 rest_widths=False, truth="sheet", regions=DEFAULT_REGIONS, up=False,
+                 by_limb=False):
         from ..datasets import ANIMATED_DRAWINGS
         from .retarget import (ANIMATED_DRAWINGS_MOTIONS, ANIMATED_DRAWINGS_START_FRAMES,
                                load_motion)
@@ -811,6 +818,13 @@ class OccludedDrawingPair:
             raise ValueError(f"size must be an int ≥ 64 (px), got {size!r}")
         _check_truth(truth)
         self.regions = _check_regions(regions)
+        for arg, v in (("up", up), ("by_limb", by_limb)):
+            if not isinstance(v, (bool, np.bool_)):
+                raise ValueError(f"{arg} must be True or False, got {v!r}")
+            if v and self.regions != "contact":
+                raise ValueError(f"{arg}=True is for regions='contact', got "
+                                 f"regions={regions!r}")
+        self.up, self.by_limb = bool(up), bool(by_limb)
         self.bvh = load_motion(motion)
         self.ref = ANIMATED_DRAWINGS_START_FRAMES[motion]
         for arg, t in (("t0", t0), ("t1", t1)):
@@ -912,7 +926,7 @@ class OccludedDrawingPair:
             pairs = [o[:2] for o in limb_body_overlaps(sk, self.rest, self.radius)]
             sug = suggest_occlusions(key, sk, radius=self.radius, mask=fg, widths=self.widths,
                                      t_junctions=self.t_junctions and self.regions == "contact",
-                                     extent=self.regions,
+                                     extent=self.regions, up=self.up, by_limb=self.by_limb,
                                      pairs=pairs) if pairs else []
             # overlapping suggestions (one hand on torso and neck) become one region: the
             # layered template takes at most two layers per region
@@ -927,7 +941,8 @@ class OccludedDrawingPair:
                 hit = [o for o in sug if (o.mask & m).any()]
                 names = [o.label for o in hit]
                 if len(hit) == 1 and self.regions == "contact":   # its own T-junctions
-                    regs.append(Occlusion(m, hit[0].t_junctions, label=hit[0].label))
+                    regs.append(Occlusion(m, hit[0].t_junctions, label=hit[0].label,
+                                          limb=hit[0].limb))
                 elif m.sum() >= 16:
                     tj = ()
                     if self.t_junctions:
@@ -957,7 +972,7 @@ def _check_truth(truth):
 
 
 def occluded_drawing_pairs(shots=None, size=256, t_junctions=True, rest_widths=False,
-                           truth="sheet", regions=DEFAULT_REGIONS):
+                           truth="sheet", regions=DEFAULT_REGIONS, up=False, by_limb=False):
     """:class:`OccludedDrawingPair` of every shot (default :data:`AD_OCCLUDED_SHOTS`)."""
     shots = AD_OCCLUDED_SHOTS if shots is None else shots
     if not isinstance(shots, dict) or not shots:
@@ -965,13 +980,14 @@ def occluded_drawing_pairs(shots=None, size=256, t_junctions=True, rest_widths=F
                          f"got {shots!r}")
     _check_truth(truth)
     return [OccludedDrawingPair(name, *shot, size=size, t_junctions=t_junctions,
-                                rest_widths=rest_widths, truth=truth, regions=regions)
+                                rest_widths=rest_widths, truth=truth, regions=regions,
+                                up=up, by_limb=by_limb)
             for name, shot in shots.items()]
 
 
 def evaluate_occluded_drawings(shots=None, size=256, n_frames=11, out=None, progress=True,
                                t_junctions=True, rest_widths=False, truth="sheet",
-                               regions=DEFAULT_REGIONS, **options):
+                               regions=DEFAULT_REGIONS, up=False, by_limb=False, **options):
     """Occlusion evaluation on real drawings (issue 15): every :func:`occluded_drawing_pairs`
     pair through :func:`evaluate_pairs` — physlab with layered templates from the suggested
     occlusions, physlab as one sheet, cross-dissolve, flow — scored against the posed drawing.
@@ -987,7 +1003,8 @@ def evaluate_occluded_drawings(shots=None, size=256, n_frames=11, out=None, prog
     t_junctions : bool, suggested T-junctions on the suggested regions
     (:class:`OccludedDrawingPair`). truth : ``"sheet"`` (the posed one-sheet drawing, default)
     or ``"parts"`` (the drawing cut into rigid parts; :class:`OccludedDrawingPair`).
-    regions : ``"capsule"`` or ``"contact"``, the suggested regions' extent
+    regions : ``"capsule"`` or ``"contact"``, the suggested regions' extent; up, by_limb : the
+    contact regions along the whole limb, the limb's handles on one layer
     (:class:`OccludedDrawingPair`).
     options : passed to :func:`~physlab.inbetween.pipeline.inbetween`.
 
@@ -1007,7 +1024,8 @@ def evaluate_occluded_drawings(shots=None, size=256, n_frames=11, out=None, prog
                            "provide ../shared/data with animated_drawings/)"}
     if isinstance(n_frames, bool) or not isinstance(n_frames, (int, np.integer)) or n_frames < 3:
         raise ValueError(f"n_frames must be an int ≥ 3 (keys included), got {n_frames!r}")
-    pairs = occluded_drawing_pairs(shots, size, t_junctions, rest_widths, truth, regions)
+    pairs = occluded_drawing_pairs(shots, size, t_junctions, rest_widths, truth, regions, up,
+                                   by_limb)
     sheets = None if out is None else Path(out) / "pairs"
     rows, middles = evaluate_pairs(pairs, n_frames=n_frames, progress=progress, sheets=sheets,
                                    middle=True, **options)
@@ -1497,6 +1515,12 @@ def _parser():
                    help="--occluded --source animated_drawings: suggested regions as capsule "
                         "overlaps, or grown to the limb's whole contact with the body "
                         f"(limb_contact; default {DEFAULT_REGIONS})")
+    p.add_argument("--limb-up", action="store_true",
+                   help="--regions contact: grow each limb's region along the whole limb, upper "
+                        "arm included (suggest_occlusions(up=True))")
+    p.add_argument("--by-limb", action="store_true",
+                   help="--regions contact: put a region's limb handles on one layer, by bone "
+                        "(suggest_occlusions(by_limb=True)), not by the largest depth gap")
     p.add_argument("--truth", choices=OCCLUDED_TRUTHS, default="sheet",
                    help="--occluded --source animated_drawings: the ground truth, 'sheet' (the "
                         "rest drawing deformed as one sheet into each pose, default) or "
@@ -1552,7 +1576,8 @@ def _main_occluded_drawings(args, n_frames):
                                    texture_quality=args.texture_quality,
                                    t_junctions=not args.no_t_junctions,
                                    rest_widths=args.rest_widths, truth=args.truth,
-                                   regions=args.regions)
+                                   regions=args.regions, up=args.limb_up,
+                                   by_limb=args.by_limb)
     if r["skipped"]:
         print(f"skipped AnimatedDrawings occlusions: {r['skipped']}")
         return
@@ -1561,7 +1586,9 @@ def _main_occluded_drawings(args, n_frames):
     print(r["physlab"])
     print(f"\nCD = Chamfer distance between dark pixels ×1e5. Occlusions suggested by "
           f"suggest_occlusions, T-junctions "
-          f"{'none' if args.no_t_junctions else 'suggested'}, regions {args.regions}, "
+          f"{'none' if args.no_t_junctions else 'suggested'}, regions {args.regions}"
+          f"{' (whole limb)' if args.limb_up else ''}"
+          f"{', limb handles on one layer' if args.by_limb else ''}, "
           f"capsule radii "
           f"{'the limbs drawn half-widths' if args.rest_widths else 'one for all bones'}"
           f", joint depths from the BVH. Ground truth: "
@@ -1617,6 +1644,11 @@ def main(argv=None):
         raise ValueError(f"--regions {args.regions} is for --occluded --source "
                          "animated_drawings (the procedural pairs use their true regions); "
                          "add them")
+    for flag, on in (("--limb-up", args.limb_up), ("--by-limb", args.by_limb)):
+        if on and not (args.occluded and args.source == "animated_drawings"
+                       and args.regions == "contact"):
+            raise ValueError(f"{flag} is for --occluded --source animated_drawings --regions "
+                             "contact; add them")
     if isinstance(args.pairs, Path):
         _main_folder(args)
     elif args.occluded and args.source == "animated_drawings":

@@ -131,15 +131,23 @@ class Occlusion:
     t_junctions : (m, 2) pixel points on the region's outline where one outline ends against
         another (Fig. 7); may be empty.
     label : str, free text (e.g. which parts overlap).
+    limb : tuple of joint names, each naming the bone it ends (e.g. ``("left_elbow",
+        "left_hand")``: upper arm + forearm), the limb whose region it is; empty (default):
+        none. With a limb, :func:`build_layered_template` puts the handles of those bones
+        (both joints and the midpoint of each) on one layer and the region's other handles on
+        the other, the farther group in the pocket (by bone), instead of splitting the handles
+        at their largest depth gap (Secs. 4.2, 5.1), which may cut a limb in two.
 
     Raises
     ------
-    ValueError for an empty mask, a polygon with fewer than 3 points, NaN points.
+    ValueError for an empty mask, a polygon with fewer than 3 points, NaN points, a ``limb``
+    that is not a sequence of joint names.
     """
 
     mask: np.ndarray
     t_junctions: np.ndarray = ()
     label: str = ""
+    limb: tuple = ()
 
     def __post_init__(self):
         m = np.asarray(self.mask)
@@ -161,12 +169,20 @@ class Occlusion:
         tj = np.asarray(self.t_junctions, dtype=np.float64).reshape(-1, 2)
         if not np.all(np.isfinite(tj)):
             raise ValueError("t_junctions contain NaN or inf")
+        limb = self.limb
+        if isinstance(limb, str) or not isinstance(limb, (tuple, list)) \
+                or not all(isinstance(j, str) for j in limb):
+            raise ValueError(f"Occlusion limb must be a tuple of joint names (bones named by "
+                             f"their end joint), e.g. ('left_elbow', 'left_hand'), got {limb!r}")
         object.__setattr__(self, "mask", m)
         object.__setattr__(self, "t_junctions", tj)
+        object.__setattr__(self, "limb", tuple(limb))
 
     def __repr__(self):
         kind = "polygon" if self.is_polygon else f"mask {self.mask.shape[1]}x{self.mask.shape[0]}"
-        return f"Occlusion({kind}, {len(self.t_junctions)} T-junctions, label={self.label!r})"
+        limb = f", limb={self.limb!r}" if self.limb else ""
+        return (f"Occlusion({kind}, {len(self.t_junctions)} T-junctions, "
+                f"label={self.label!r}{limb})")
 
     @property
     def is_polygon(self):
@@ -194,17 +210,20 @@ class Occlusion:
             from ..mesh import boundary_polygon
 
             poly = boundary_polygon(self.mask, epsilon=0.5).tolist()
-        return {"polygon": poly, "t_junctions": self.t_junctions.tolist(), "label": self.label}
+        d = {"polygon": poly, "t_junctions": self.t_junctions.tolist(), "label": self.label}
+        if self.limb:
+            d["limb"] = list(self.limb)
+        return d
 
     @classmethod
     def from_dict(cls, d, where="occlusion"):
         if not isinstance(d, dict) or "polygon" not in d:
             raise ValueError(f"{where}: expected an object with 'polygon' (list of [x, y]) and "
-                             f"optional 't_junctions', 'label'")
+                             f"optional 't_junctions', 'label', 'limb'")
         try:
             return cls(np.asarray(d["polygon"], dtype=np.float64),
                        np.asarray(d.get("t_junctions", []), dtype=np.float64),
-                       str(d.get("label", "")))
+                       str(d.get("label", "")), d.get("limb", ()))
         except (TypeError, ValueError) as err:
             raise ValueError(f"{where}: {err}") from None
 
@@ -715,7 +734,39 @@ def _hidden_depths(mesh, skeleton, cover, samples=32):
     return out
 
 
-def _layered_handle_pockets(tri0, hdepth, cover, cell, hidden, name):
+def _limb_handles(skeleton, limb, where="limb"):
+    """(J + B,) bool over :meth:`Skeleton.handles` (joints, then bone midpoints): the handles
+    of the bones ``limb`` (joint names, each naming the bone it ends) — both joints of each
+    bone (the limb's root joint, where it is attached, included) and its midpoint.
+
+    Raises ValueError naming ``where`` for an unknown joint or the root.
+    """
+    J = len(skeleton.names)
+    child = np.flatnonzero(np.asarray(skeleton.parents) >= 0)      # bone k ends at child[k]
+    out = np.zeros(J + len(child), bool)
+    for joint in limb:
+        _bone_of(skeleton, joint, where)
+        j = skeleton.index(joint)
+        out[[skeleton.parents[j], j, J + int(np.searchsorted(child, j))]] = True
+    return out
+
+
+def _limb_split(hs, hdepth, in_limb):
+    """Which of a region's handles go into its pocket when the region is a limb's (by bone):
+    ``(len(hs),) bool``, the limb's handles (``in_limb`` (K,) bool) all on one layer and the
+    region's other handles on the other, the group of larger mean depth (``hdepth`` (K,),
+    smaller = nearer) in the pocket. All on the base layer when one group is empty or the
+    means tie (as the depth split does for equal depths)."""
+    a = in_limb[hs]
+    if a.all() or not a.any():
+        return np.zeros(len(hs), bool)
+    da, do = hdepth[hs][a].mean(), hdepth[hs][~a].mean()
+    if abs(da - do) <= 1e-9:
+        return np.zeros(len(hs), bool)
+    return a if da > do else ~a
+
+
+def _layered_handle_pockets(tri0, hdepth, cover, cell, hidden, name, limbs=None):
     """Layer of each handle when regions overlap (Sec. 4.2 with masks "one per layer, sorted by
     depth", Sec. 4): ``(K,) int``, the region whose pocket holds the handle, −1 for the base.
 
@@ -727,7 +778,10 @@ def _layered_handle_pockets(tri0, hdepth, cover, cell, hidden, name):
     groups at the largest gaps, put each handle on its layer.
 
     ``hidden`` (R,) is the depth of the part each region hides (:func:`_hidden_depths`, NaN
-    when unknown).
+    when unknown). ``limbs`` (R,) list of (K,) bool or None (:func:`_limb_handles` of each
+    region's :attr:`Occlusion.limb`): a cell covered by one region that has a limb splits its
+    handles by bone instead (:func:`_limb_split`); cells of overlapping regions keep the depth
+    clusters.
 
     Raises ValueError when the joints' depths have fewer distinct values than a cell has layers
     (they cannot order them), and when the order of the occlusions contradicts ``hidden`` (of
@@ -740,7 +794,9 @@ def _layered_handle_pockets(tri0, hdepth, cover, cell, hidden, name):
     for c in np.unique(cell[cover.sum(axis=1) == 1]):
         rs = np.flatnonzero(cover[np.flatnonzero(cell == c)[0]])
         hs = np.flatnonzero(hcell == c)
-        if len(hs) and np.ptp(hdepth[hs]) > 1e-9:
+        if len(hs) and limbs is not None and limbs[rs[0]] is not None:
+            out[hs[_limb_split(hs, hdepth, limbs[rs[0]])]] = rs[0]
+        elif len(hs) and np.ptp(hdepth[hs]) > 1e-9:
             d = np.sort(hdepth[hs])
             gap = np.argmax(np.diff(d))
             out[hs[hdepth[hs] > 0.5 * (d[gap] + d[gap + 1])]] = rs[0]
@@ -980,6 +1036,10 @@ def build_layered_template(image, skeleton, occlusions=(), mask=None, mask_predi
         Regions may overlap: each adds a layer over its area (Sec. 4, "one mask per layer,
         sorted by depth"), and in an overlap the occlusion listed first hides the nearer part
         (e.g. ``[torso under the left forearm, right forearm under torso and left forearm]``).
+        The handles inside a region go to its two layers by depth — split at their largest
+        depth gap, the farther ones in the pocket (Secs. 4.2, 5.1) — or, for an occlusion with
+        a :attr:`Occlusion.limb`, by bone: the limb's handles on one layer, the others on the
+        other (where regions overlap, by the depth clusters either way).
     mask, mask_predictor, max_area, epsilon, min_angle, grow : as
         :func:`~physlab.inbetween.template.build_template`.
     target_skeletons : list of Skeletons the template is deformed through to score the
@@ -1010,8 +1070,8 @@ def build_layered_template(image, skeleton, occlusions=(), mask=None, mask_predi
     ValueError for masks of another size, occlusions outside the foreground, T-junctions off
     their outline, a skeleton without depth when a region holds handles of both layers, a
     region repeating an earlier one (IoU > 0.8), overlapping regions whose joints have fewer
-    distinct depths than the layers there, or overlapping occlusions listed in an order the
-    joint depths contradict…
+    distinct depths than the layers there, overlapping occlusions listed in an order the
+    joint depths contradict, an occlusion's ``limb`` naming an unknown joint or the root…
     """
     from scipy import ndimage
     from scipy.spatial import cKDTree
@@ -1033,6 +1093,9 @@ def build_layered_template(image, skeleton, occlusions=(), mask=None, mask_predi
              for g in range(1, n_gaps + 1) if (gaps == g).sum() >= MIN_HOLE_AREA]
 
     # ---- regions: masks inside the foreground, outlines through the T-junctions (Sec. 4.1)
+    # by-bone handle layers of regions that are a limb's (Occlusion.limb)
+    limbs = [_limb_handles(skeleton, o.limb, f"{name}: occlusions[{i}].limb") if o.limb
+             else None for i, o in enumerate(occlusions)]
     if occlusions and skeleton.depth is None:
         raise ValueError(f"{name}: the skeleton has no joint depths, but occlusion layers need "
                          "the depth order of the joints near each region (Sec. 4): "
@@ -1145,14 +1208,17 @@ def build_layered_template(image, skeleton, occlusions=(), mask=None, mask_predi
     if layered:
         cover, cell = _triangle_cells(tris, regions)
         hidden = _hidden_depths(base_mesh, skeleton, cover)
-        pocket_of_handle = _layered_handle_pockets(tri0, hdepth, cover, cell, hidden, name)
+        pocket_of_handle = _layered_handle_pockets(tri0, hdepth, cover, cell, hidden, name,
+                                                   limbs)
     else:
         for r, reg in enumerate(regions):
             in_reg = np.isin(tri0, reg.tris_a)
             if not in_reg.any():
                 continue
             hs = np.flatnonzero(in_reg)
-            if hdepth is not None and np.ptp(hdepth[hs]) > 1e-9:
+            if limbs[r] is not None:    # by bone: the limb's handles on one layer
+                pocket_of_handle[hs[_limb_split(hs, hdepth, limbs[r])]] = r
+            elif hdepth is not None and np.ptp(hdepth[hs]) > 1e-9:
                 d = np.sort(hdepth[hs])
                 gap = np.argmax(np.diff(d))
                 cut = 0.5 * (d[gap] + d[gap + 1])
@@ -1619,7 +1685,8 @@ def suggest_t_junctions(region, skeleton, bones, radius, mask, front=None, min_r
 
 
 def suggest_occlusions(image, skeleton, radius=None, mask=None, predictor=None,
-                       t_junctions=False, widths=None, extent="capsule", pairs=None):
+                       t_junctions=False, widths=None, extent="capsule", pairs=None, up=False,
+                       by_limb=False):
     """Suggested occlusion regions of a keyframe: the CPU substitute for the paper's mask
     network (Sec. 4.1), for the user to accept or edit.
 
@@ -1647,16 +1714,21 @@ def suggest_occlusions(image, skeleton, radius=None, mask=None, predictor=None,
     the axis intervals where the drawing is wider than the limb, cut across the limb where it
     leaves the body's outline — one region per limb (labels joined by ``"+"``), with
     :func:`limb_contact`'s T-junctions when ``t_junctions=True``. A limb with no such contact
-    keeps its capsule overlaps. ``pairs`` (iterable of bone-name pairs) keeps only those of
-    :func:`limb_overlaps`' pairs (e.g. a limb on the body that the drawing does not have).
+    keeps its capsule overlaps. ``up=True`` grows the region along the whole limb
+    (:func:`limb_contact` with ``up=True``: the upper arm too). ``by_limb=True`` records the
+    limb's bones on the region (:attr:`Occlusion.limb`), so that
+    :func:`build_layered_template` keeps the limb's handles on one layer (by bone) instead of
+    splitting the region's handles at their largest depth gap. ``pairs`` (iterable of
+    bone-name pairs) keeps only those of :func:`limb_overlaps`' pairs (e.g. a limb on the body
+    that the drawing does not have). ``up`` and ``by_limb`` are for ``extent="contact"``.
 
     Returns list of :class:`Occlusion` (labels ``"<joint a>/<joint b>"``, bones named by their
     end joints).
 
     Raises
     ------
-    ValueError naming the argument for a bad ``t_junctions``, ``mask``, ``widths``, ``extent``
-    or ``pairs``.
+    ValueError naming the argument for a bad ``t_junctions``, ``mask``, ``widths``, ``extent``,
+    ``pairs``, ``up`` or ``by_limb`` (``up=True`` or ``by_limb=True`` with ``extent="capsule"``).
     """
     if predictor is not None:
         return list(predictor(image, skeleton))
@@ -1672,6 +1744,12 @@ def suggest_occlusions(image, skeleton, radius=None, mask=None, predictor=None,
     r = _check_widths(widths, skeleton)
     if not isinstance(extent, str) or extent not in REGION_EXTENTS:
         raise ValueError(f"extent must be one of {REGION_EXTENTS}, got {extent!r}")
+    for arg, v in (("up", up), ("by_limb", by_limb)):
+        if not isinstance(v, (bool, np.bool_)):
+            raise ValueError(f"{arg} must be True or False, got {v!r}")
+        if v and extent != "contact":
+            raise ValueError(f"{arg}=True is for extent='contact' (a limb's region), got "
+                             f"extent={extent!r}")
     overlaps = limb_overlaps(skeleton, radius)
     if pairs is not None:
         try:
@@ -1706,13 +1784,15 @@ def suggest_occlusions(image, skeleton, radius=None, mask=None, predictor=None,
             out.append(Occlusion(m, tj, label=f"{ja}/{jb}"))
     if extent == "capsule":
         return out
-    return _contact_regions(out, skeleton, fg, radius, r, t_junctions)
+    return _contact_regions(out, skeleton, fg, radius, r, t_junctions, up, by_limb)
 
 
-def _contact_regions(capsule_regions, skeleton, fg, radius, widths, t_junctions):
+def _contact_regions(capsule_regions, skeleton, fg, radius, widths, t_junctions, up=False,
+                     by_limb=False):
     """:func:`suggest_occlusions`' ``extent="contact"``: the capsule overlaps grouped by their
-    limb (the bone of each pair deeper in the hierarchy) and grown by :func:`limb_contact`;
-    returns list of :class:`Occlusion` (a limb without contact keeps its capsule regions)."""
+    limb (the bone of each pair deeper in the hierarchy) and grown by :func:`limb_contact`
+    (``up`` as there); returns list of :class:`Occlusion` (a limb without contact keeps its
+    capsule regions), with ``limb`` the bones the region was grown along when ``by_limb``."""
     def level(j):
         n, i = 0, skeleton.index(j)
         while skeleton.parents[i] >= 0:
@@ -1727,17 +1807,21 @@ def _contact_regions(capsule_regions, skeleton, fg, radius, widths, t_junctions)
     out = []
     for limb, regs in groups.items():
         seed = np.any([o.mask for o in regs], axis=0)
-        # the limb's bone and the bones below it only (up=False): with the upper arm in the
-        # region too, a forearm folded back across the chest (AnimatedDrawings char1, zombie)
-        # has the upper arm's midpoint handle fall on the body's side of the layers' depth split
-        # (Sec. 5.1's largest gap), and the template explodes (handle error 36 px, README)
+        # by default the limb's bone and the bones below it only (up=False): with the upper
+        # arm in the region too, the layered run of a forearm folded back across the chest
+        # (AnimatedDrawings char1, zombie) explodes (handle error 36 px), with the handles
+        # split by depth gap or by bone (by_limb: 42 px) alike (README)
         region, tj = limb_contact(skeleton, limb, fg, widths.get(limb, radius), seed=seed,
-                                  up=False)
+                                  up=up)
         if not region.any():
             out += regs
             continue
+        chain = limb_chain(skeleton, limb)
+        if not up:
+            chain = chain[chain.index(limb):]
         out.append(Occlusion(region, tj if t_junctions else (),
-                             label="+".join(o.label for o in regs)))
+                             label="+".join(o.label for o in regs),
+                             limb=tuple(chain) if by_limb else ()))
     return out
 
 
