@@ -121,11 +121,19 @@ class DenoiserConfig:
                                     # the T rows (low_pass_matrix); 0 = off. x0-prediction only
     skip: bool = False              # x̂₀ = √ᾱ_t x_t + √(1 − ᾱ_t) F: the network adds only what
                                     # x_t does not say (MotionDenoiser doc); x0-prediction only
+    skip_pelvis: bool = True        # with skip: also on the pelvis position columns; False:
+                                    # those stay plain x₀ ("absolute" features only)
 
     def __post_init__(self):
         check_representation(self.representation)
-        if not isinstance(self.skip, bool):
-            raise ValueError(f"DenoiserConfig.skip must be True or False, got {self.skip!r}")
+        for name in ("skip", "skip_pelvis"):
+            if not isinstance(getattr(self, name), bool):
+                raise ValueError(f"DenoiserConfig.{name} must be True or False, got "
+                                 f"{getattr(self, name)!r}")
+        if self.skip and not self.skip_pelvis and self.representation != "absolute":
+            raise ValueError(f"DenoiserConfig.skip_pelvis=False needs representation "
+                             f"'absolute' (its pelvis position columns), got "
+                             f"{self.representation!r}")
         if (isinstance(self.smooth_basis, bool) or not isinstance(self.smooth_basis, int)
                 or not 0 <= self.smooth_basis <= self.n_frames):
             raise ValueError(f"DenoiserConfig.smooth_basis must be an integer in 0..n_frames "
@@ -387,7 +395,8 @@ class MotionDenoiser(nn.Module):
     ``σ_d = 1`` (normalised features): ``√ᾱ_t x_t`` is the best linear guess of x₀ from x_t and
     ``√(1 − ᾱ_t)`` the size of what it misses. Near t = 0 the identity comes free and the
     network learns only a small correction; near T it predicts x₀ as before (``√ᾱ_T ≈
-    0.07``). Without it the shipped 0.9 M-parameter x₀ model damped a real wave it was handed
+    0.07``). ``config.skip_pelvis = False`` leaves the pelvis position columns plain x₀ (the
+    pose columns keep the skip). Without it the shipped 0.9 M-parameter x₀ model damped a real wave it was handed
     at t = 20 (almost no noise) to 78 % of its wrist travel in one step. The ᾱ_t table comes
     from the checkpoint's scheduler (:meth:`set_schedule`), not from the weights.
     """
@@ -406,6 +415,10 @@ class MotionDenoiser(nn.Module):
         #: ``(T_diff,)`` √ᾱ_t and √(1 − ᾱ_t) of the skip connection (:meth:`set_schedule`)
         self.register_buffer("skip_scale", torch.zeros(0), persistent=False)
         self.register_buffer("out_scale", torch.zeros(0), persistent=False)
+        mask = torch.ones(cfg.feature_dim)                  # columns under the skip connection
+        if not cfg.skip_pelvis:
+            mask[ABS_PELVIS] = 0.0
+        self.register_buffer("skip_mask", mask, persistent=False)
         #: None or ``(mask, P)``: the feature columns where ``mask`` (D,) is 1 keep only the
         #: frequencies of ``P`` (a narrower :func:`low_pass_matrix`; set by the sampler for the
         #: pelvis path, :data:`~physlab.motion.sampling.PATH_FREQUENCIES`).
@@ -464,8 +477,10 @@ class MotionDenoiser(nn.Module):
                 raise RuntimeError("this denoiser has a skip connection (config.skip) but no "
                                    "noise schedule: call set_schedule(scheduler.alphas_cumprod)"
                                    " (load_model does)")
-            out = (self.skip_scale[t].to(out.dtype)[:, None, None] * x_t
-                   + self.out_scale[t].to(out.dtype)[:, None, None] * out)  # EDM c_skip, c_out
+            skipped = (self.skip_scale[t].to(out.dtype)[:, None, None] * x_t
+                       + self.out_scale[t].to(out.dtype)[:, None, None] * out)  # c_skip, c_out
+            m = self.skip_mask.to(out.dtype)
+            out = m * skipped + (1 - m) * out
         return self.smooth(out)
 
 

@@ -291,3 +291,14 @@ def test_skip_connection_is_the_linear_guess_plus_a_scaled_correction():
     with pytest.raises(ValueError, match="skip must be True or False"):
         DenoiserConfig(skip=1)
     assert plain.set_schedule(torch.zeros(3)) is plain    # no skip connection: ignored
+    # skip_pelvis=False: the pelvis position columns stay plain x0 (F), the rest skip
+    nop = MotionDenoiser(dataclasses.replace(cfg, skip_pelvis=False)).eval()
+    nop.load_state_dict(m.state_dict())
+    nop.set_schedule(abar)
+    with torch.no_grad():
+        y = nop(x, t, a)
+    from physlab.motion.features import ABS_PELVIS
+    torch.testing.assert_close(y[..., ABS_PELVIS], torch.zeros_like(y[..., ABS_PELVIS]))
+    torch.testing.assert_close(y[..., 3:], (s * x)[..., 3:])
+    with pytest.raises(ValueError, match="skip_pelvis=False needs"):
+        DenoiserConfig(skip=True, skip_pelvis=False)          # "relative" features
