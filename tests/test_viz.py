@@ -55,7 +55,6 @@ def test_interact_fixes_unlisted_defaults_and_calls_back():
 
 def test_interact_shows_exactly_one_figure_in_a_real_kernel():
     """Under a Jupyter kernel the widget's output area holds the callback's figure, once."""
-    import nbformat
     from nbclient import NotebookClient
     from nbformat.v4 import new_code_cell, new_notebook
 
