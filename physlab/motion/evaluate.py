@@ -531,7 +531,9 @@ def text_adherence(control, contents=ADHERENCE_CONTENTS, seeds=4, steps=50, guid
     -------
     dict: ``per_content`` {content: {"text", "n_real", "real": {stat: mean},
     "generated": {stat: mean}, "recognised_as": list of contents}}, ``accuracy`` float,
-    ``chance`` float, ``seeds``, ``steps``, ``guidance``.
+    ``chance`` float, ``seeds``, ``steps``, ``guidance``, ``quality`` {"real", "generated":
+    {"auj", "pj", "skating"}} (:func:`~physlab.motion.metrics.jerk` with reference 0 and
+    foot skating over the real windows of the contents and over every generated clip).
     """
     from tqdm.auto import tqdm
 
@@ -551,11 +553,12 @@ def text_adherence(control, contents=ADHERENCE_CONTENTS, seeds=4, steps=50, guid
         raise ValueError(f"no Bandai-Namco windows of {missing}")
     means = np.stack([real_stats[labels == c].mean(0) for c in contents])  # (C, 4)
     scale = real_stats.std(0) + 1e-9
-    per, hits, total = {}, 0, 0
+    per, hits, total, made = {}, 0, 0, []
     for k, c in enumerate(tqdm(contents, desc="text adherence", disable=not progress)):
         text = action_text(c)
         clips = np.stack([gen(text, seed=s, steps=steps, guidance_scale=guidance)
                           for s in range(seeds)])
+        made.append(clips)
         g = motion_statistics(clips)                                       # (S, 4)
         nearest = np.argmin((((g[:, None] - means[None]) / scale) ** 2).sum(-1), axis=1)
         rec = [contents[j] for j in nearest]
@@ -565,8 +568,16 @@ def text_adherence(control, contents=ADHERENCE_CONTENTS, seeds=4, steps=50, guid
                   "real": dict(zip(STATISTICS, means[k].tolist())),
                   "generated": dict(zip(STATISTICS, g.mean(0).tolist())),
                   "recognised_as": rec}
+    real = win.joints[np.isin(labels, contents)]
+    made = np.concatenate(made)
+
+    def quality(J):                                    # AUJ, PJ (m/frame³), foot skating
+        auj, pj = jerk(J)
+        return {"auj": auj, "pj": pj, "skating": float(np.mean(foot_skating_ratio(J)))}
+
     return {"per_content": per, "accuracy": hits / total, "chance": 1.0 / len(contents),
-            "seeds": int(seeds), "steps": int(steps), "guidance": float(guidance)}
+            "seeds": int(seeds), "steps": int(steps), "guidance": float(guidance),
+            "quality": {"real": quality(real), "generated": quality(made)}}
 
 
 #: Noise levels of :func:`detail_kept` (None: pure noise, as in sampling).
@@ -643,6 +654,12 @@ def format_adherence(res):
     lines += ["", f"Text only, {res['seeds']} seeds per text, {res['steps']} DDIM steps, "
               f"w = {res['guidance']:g}. Recognition accuracy (nearest real action mean): "
               f"{res['accuracy']:.2f} (chance {res['chance']:.2f})."]
+    if "quality" in res:
+        r, g = res["quality"]["real"], res["quality"]["generated"]
+        lines.append(f"Jerk (plain area / peak of the mean jerk curve, m/frame³) real "
+                     f"{r['auj']:.2f} / {r['pj']:.3f}, generated {g['auj']:.2f} / "
+                     f"{g['pj']:.3f}; foot skating real {r['skating']:.3f}, generated "
+                     f"{g['skating']:.3f}.")
     return "\n".join(lines)
 
 

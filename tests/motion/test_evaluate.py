@@ -236,6 +236,14 @@ def test_text_adherence_structure_and_errors(ckpts, real_data):
     assert walk["real"]["forward_m"] > 1.0 > abs(res["per_content"]["bow"]["real"]["forward_m"])
     assert len(walk["recognised_as"]) == 2
     assert "a person bows" in format_adherence(res)
+    # jerk and skating: real windows of walks and bows against the 4 generated clips
+    from physlab.motion.dataset import load_clips, make_windows
+    from physlab.motion.metrics import jerk
+
+    win = make_windows(load_clips(contents=["walk", "bow"]), length=40, stride=10)
+    assert res["quality"]["real"]["auj"] == pytest.approx(jerk(win.joints)[0])
+    assert set(res["quality"]["generated"]) == {"auj", "pj", "skating"}
+    assert "Jerk (plain area" in format_adherence(res)
     with pytest.raises(ValueError, match="unknown"):
         text_adherence(ckpts["control"], contents=("fly",), progress=False)
     with pytest.raises(ValueError, match="seeds"):
