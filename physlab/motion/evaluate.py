@@ -518,14 +518,15 @@ def motion_statistics(joints, fps=20.0):
 
 
 def text_adherence(control, contents=ADHERENCE_CONTENTS, seeds=4, steps=50, guidance=2.5,
-                   progress=True, data_root=None):
+                   progress=True, data_root=None, frequencies=None):
     """Does the text-only generator do what the action word says? (Next to the evaluator's
     R-precision, this says *what* differs: travel, speed, hand height.)
 
     For each content, ``seeds`` text-only clips of ``action_text(content)`` are compared with
     the windows of all Bandai-Namco clips of that content (both takes: the reference says what
     the action looks like; the held-out take lacks some actions) through
-    :func:`motion_statistics`.
+    :func:`motion_statistics`; ``frequencies`` as :meth:`Generator.__call__` (None: its
+    text-only default).
     Recognition: each generated clip is assigned the content whose mean real statistics are
     nearest (statistics scaled by their spread over the real windows); ``accuracy`` is the
     fraction assigned to the content asked for (chance ``1 / len(contents)``).
@@ -559,8 +560,8 @@ def text_adherence(control, contents=ADHERENCE_CONTENTS, seeds=4, steps=50, guid
     per, hits, total, made = {}, 0, 0, []
     for k, c in enumerate(tqdm(contents, desc="text adherence", disable=not progress)):
         text = action_text(c)
-        clips = np.stack([gen(text, seed=s, steps=steps, guidance_scale=guidance)
-                          for s in range(seeds)])
+        clips = np.stack([gen(text, seed=s, steps=steps, guidance_scale=guidance,
+                              frequencies=frequencies) for s in range(seeds)])
         made.append(clips)
         g = motion_statistics(clips)                                       # (S, 4)
         nearest = np.argmin((((g[:, None] - means[None]) / scale) ** 2).sum(-1), axis=1)
@@ -1118,8 +1119,8 @@ def _parser():
     p.add_argument("--no-foot-lock", action="store_true",
                    help="body constraints without the foot-contact lock")
     p.add_argument("--frequencies", type=int, default=None,
-                   help="DCT frequencies x̂₀ keeps in every row (default: the generator's, "
-                        "10; the checkpoint was trained with 16)")
+                   help="DCT frequencies x̂₀ keeps in every row and in --adherence (default: "
+                        "the generator's, 10; the checkpoint was trained with 16)")
     return p
 
 
@@ -1167,7 +1168,7 @@ def main(argv=None):
         adherence = text_adherence(args.control, seeds=args.adherence_seeds,
                                    steps=args.steps, guidance=args.guidance,
                                    progress=not args.no_progress,
-                                   data_root=args.data_root)
+                                   data_root=args.data_root, frequencies=args.frequencies)
     if rows:
         print(format_table(rows))
     if args.sketch:

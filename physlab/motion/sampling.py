@@ -297,6 +297,18 @@ class Generator:
 
     # -- network evaluation
 
+    @staticmethod
+    def _pairs(timesteps):
+        """``(t, t_prev)`` along a descending schedule; ``t_prev = -1`` after the last."""
+        ts = [int(t) for t in timesteps]
+        return list(zip(ts, ts[1:] + [-1]))
+
+    def _decode(self, x0):
+        """The (1, T, D) normalised clean estimate x̂₀ -> (de-normalised (T, D) features,
+        (N, 22, 3) joints)."""
+        feats = self.stats.denormalize(x0[0].double().numpy())
+        return feats, decode_motion(feats, self.config.representation)
+
     def _eps(self, x, t, a, drop, cond):
         """Network output (B, T, D) (x̂₀ / ε̂ / v̂, the scheduler's ``prediction_type``) of the
         text model (cond None) or the controlled one (Eq. (4); a sample whose
@@ -692,10 +704,9 @@ class Generator:
         shape = (1, self.config.n_frames, self.config.feature_dim)           # (1, T, D)
         x = torch.randn(shape, generator=g)                                  # x_T ~ N(0, I)
         w, w_c = float(guidance_scale), float(condition_scale)
-        bar = _progress(timesteps.tolist(), progress, f"{method} sampling")
+        bar = _progress(self._pairs(timesteps), progress, f"{method} sampling")
         with torch.no_grad(), self._frequencies(frequencies, path_frequencies):
-            for i, t in enumerate(bar):
-                t_prev = int(timesteps[i + 1]) if i + 1 < len(timesteps) else -1
+            for t, t_prev in bar:
                 t_in = torch.tensor([t])
                 final = t_prev == -1
                 iters = guidance_final if final else inference_guidance
@@ -716,8 +727,7 @@ class Generator:
         # The result is the clean estimate x̂₀ of the last step, not the sampler's x at the
         # first training level (ᾱ_0 < 1 in MLD's schedule): that x keeps ~70 % of the last
         # step's residual x_t − √ᾱ_t x̂₀ and so undoes most of a last-step guidance.
-        feats = self.stats.denormalize(x0[0].double().numpy())              # (39, 137)
-        joints = decode_motion(feats, self.config.representation)           # (40, 22, 3)
+        feats, joints = self._decode(x0)                            # (39, 137), (40, 22, 3)
         if body_constraints and np.all(np.isfinite(joints)):
             lengths = clip_bone_lengths(c["keypose"][None]) if c["has_keypose"] else None
             toes = [TRAJECTORY_JOINTS.index(j) for j in FOOT_TOES]
@@ -767,12 +777,10 @@ class Generator:
         K = self.config.smooth_basis
         k = min(TEXT_FREQUENCIES, K) if frequencies is None and K else frequencies
         with torch.no_grad(), self._frequencies(k):
-            for i, t in enumerate(timesteps.tolist()):
-                t_prev = int(timesteps[i + 1]) if i + 1 < len(timesteps) else -1
+            for t, t_prev in self._pairs(timesteps):
                 out = self._predict(x, torch.tensor([t]), a, None, float(guidance_scale))
                 x, x0_hat = self.scheduler.ddim_step(out, t, t_prev, x)
-        feats = self.stats.denormalize(x0_hat[0].double().numpy())
-        return decode_motion(feats, self.config.representation)
+        return self._decode(x0_hat)[1]
 
 
 # ----------------------------------------------------------------------------- generate()

@@ -145,9 +145,9 @@ DEFAULT_REPRESENTATION = "absolute"
 #: DCT frequencies kept in x̂₀ by a new absolute base (``--smooth-basis``; module docstring).
 DEFAULT_SMOOTH_BASIS = 16
 
-#: Model of ``--smoke`` runs: a few seconds on a CPU.
 #: Training stages: the text denoiser, its ControlNet + keypose adapter, the 2D encoders.
 STAGES = ("base", "control", "align")
+#: Model of ``--smoke`` runs: a few seconds on a CPU.
 SMOKE_MODEL = {"d_model": 32, "n_heads": 2, "n_layers": 2, "ff": 64, "dropout": 0.0}
 
 

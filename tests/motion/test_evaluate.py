@@ -244,6 +244,10 @@ def test_text_adherence_structure_and_errors(ckpts, real_data):
     assert res["quality"]["real"]["auj"] == pytest.approx(jerk(win.joints)[0])
     assert set(res["quality"]["generated"]) == {"auj", "pj", "skating"}
     assert "Jerk (plain area" in format_adherence(res)
+    # frequencies reach the sampler: with the DC term alone a clip stands still
+    still = text_adherence(ckpts["control"], contents=("walk", "bow"), seeds=2, steps=2,
+                           progress=False, frequencies=1)["per_content"]["walk"]["generated"]
+    assert still["wrist_travel_m"] < 1e-6 < walk["generated"]["wrist_travel_m"], still
     with pytest.raises(ValueError, match="unknown"):
         text_adherence(ckpts["control"], contents=("fly",), progress=False)
     with pytest.raises(ValueError, match="seeds"):
