@@ -221,10 +221,11 @@ def lock_feet(joints, contacts=None, pinned=None, blend=3, keep=LOCK_KEEP, fps=2
     ----------
     joints : (T, 22, 3) float array (m), one clip with rigid bones (:func:`rigid_bones`).
     contacts : None (:func:`foot_contacts` of the clip) or a (T, 2) bool array.
-    pinned : None or a (T, 2) bool array of frames whose toe must not move (e.g. frames with
-        a trajectory condition for that foot, or the keypose frame): they are never locked,
-        and the offset ramps in linearly from them (at most :data:`FADE_STEP` per frame, over
-        at least ``blend + 1`` frames), so no jump is added next to a condition.
+    pinned : None or a (T, 2) bool array of frames whose toe must not move (e.g. frames where
+        the guidance put that foot on its trajectory condition, or the keypose frame): they
+        are never locked, and the offset ramps in linearly from them (at most
+        :data:`FADE_STEP` per frame, over at least ``blend + 1`` frames), so no jump is added
+        next to a condition.
     blend : int >= 0, fade length in frames.
     keep : float in [0, 1], the fraction of a contact's slide that is kept (0 = a hard lock,
         1 = unchanged).
