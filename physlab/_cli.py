@@ -10,7 +10,7 @@ import argparse
 import functools
 import sys
 
-__all__ = ["Parser", "run", "guard", "run_subcommand"]
+__all__ = ["Parser", "run", "guard", "run_subcommand", "stop_like_ctrl_c"]
 
 
 class Parser(argparse.ArgumentParser):
@@ -61,6 +61,24 @@ def run(prog, func, debug=False):
               file=sys.stderr)
         return 2
     return 0 if out is None else out
+
+
+def stop_like_ctrl_c():
+    """Make SIGTERM, and a SIGINT that a non-interactive shell set to be ignored (``cmd &``),
+    stop the process the way Ctrl-C does: :class:`KeyboardInterrupt` is raised, so a training
+    loop writes its checkpoint and the same command resumes it. For long-running commands;
+    only the main thread can install signal handlers (elsewhere this does nothing)."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        return
+
+    def interrupt(signum, frame):
+        raise KeyboardInterrupt(signal.Signals(signum).name)
+
+    signal.signal(signal.SIGTERM, interrupt)
+    signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
 def run_subcommand(prog, parser, main, argv):

@@ -1031,6 +1031,9 @@ def main(argv=None):
                             seed=args["seed"])
         print(format_report(rep))
         return rep
+    from physlab._cli import stop_like_ctrl_c
+
+    stop_like_ctrl_c()                  # `kill PID` / Ctrl-C: checkpoint, then resume later
     res = train(**{k: v for k, v in args.items() if v is not None})
     print(f"evaluator: step {res['step']}, loss {res['loss']:.4f}, {res['seconds']:.0f} s, "
           f"{res['n_params']:,} parameters -> {res['path']}")

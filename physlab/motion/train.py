@@ -797,9 +797,12 @@ def _parser():
 
 
 def main(argv=None):
+    from physlab._cli import stop_like_ctrl_c
+
     args = vars(_parser().parse_args(argv))
     args.pop("debug", None)
     export = args.pop("export")
+    stop_like_ctrl_c()                  # `kill PID` / Ctrl-C: checkpoint, then resume later
     kwargs = {k: v for k, v in args.items() if v is not None}
     res = train(**kwargs)
     if res["rank"] == 0:

@@ -201,6 +201,38 @@ def test_interrupt_writes_a_checkpoint_and_resume_finishes(real_data, tmp_path, 
     assert train(stage="base", out=str(out), steps=3, **SMOKE)["step"] == 3
 
 
+@pytest.mark.timeout(180)
+@pytest.mark.parametrize("sig", ["SIGTERM", "SIGINT"])
+def test_a_background_run_stops_on_a_signal_with_a_checkpoint(real_data, tmp_path, sig):
+    """`python -m physlab.motion.train ... &` from a script ignores SIGINT (POSIX shells do
+    that to background jobs), and `kill PID` sends SIGTERM: both stop the run the way Ctrl-C
+    does (:func:`physlab._cli.stop_like_ctrl_c`), with the checkpoint of the last step and
+    exit status 130."""
+    import signal
+    import time
+
+    out = tmp_path / "bg.pt"
+    cmd = [sys.executable, "-m", "physlab.motion.train", "--stage", "base", "--smoke",
+           "--steps", "100000", "--checkpoint-every", "2", "--no-progress",
+           "--num-threads", "1", "--out", str(out)]
+    proc = subprocess.Popen(cmd, stderr=subprocess.PIPE, text=True,
+                            cwd=Path(__file__).resolve().parents[2],
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN))
+    try:
+        deadline = time.monotonic() + 150
+        while not out.is_file() and proc.poll() is None and time.monotonic() < deadline:
+            time.sleep(0.2)                               # training has begun
+        assert out.is_file(), proc.stderr.read() if proc.poll() is not None else "no checkpoint"
+        proc.send_signal(getattr(signal, sig))
+        err = proc.communicate(timeout=60)[1]
+    finally:
+        proc.kill()
+    assert proc.returncode == 130, err[-2000:]
+    assert "interrupted: checkpoint of step" in err, err[-2000:]
+    step = int(err.split("interrupted: checkpoint of step")[1].split()[0])
+    assert load_checkpoint(out)["step"] == step >= 2
+
+
 def test_control_smoke(base_run, tmp_path):
     out = tmp_path / "control.pt"
     res = train(stage="control", base_ckpt=str(base_run["path"]), out=str(out), steps=2,
