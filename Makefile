@@ -77,12 +77,13 @@ bench: $(STAMP)
 	$(PY) benchmarks/run_all.py
 
 # Retrains data/motion/*.pt (part 4, Sketch2Anim) from the Bandai-Namco clips in ../shared/data
-# (every take but the held-out 002), on 2 cores, ~125 min in all: the text-motion evaluator
-# (1000 steps, ~7 min on one thread), the text-conditioned base denoiser (5000 steps, ~10 min),
-# the trajectory ControlNet + keypose adapter on the frozen base (6000 steps, ~33 min) and the
-# single-ControlNet ablation (6000 steps, the same budget, ~23 min), the 2D encoders aligned to the
-# 3D ones (align stage, 5000 steps, ~40 min) and the lift-and-control lifter (~10 min). Resumable: rerun after an
-# interruption.
+# (every take but the held-out 002), on 2 cores, ~125-150 min in all depending on the host: the
+# text-motion evaluator (1000 steps, ~7 min on one thread), the text-conditioned base denoiser
+# (10000 steps, ~20-24 min), the trajectory ControlNet + keypose adapter on the frozen base
+# (6000 steps, ~33-44 min) and the single-ControlNet ablation (6000 steps, the same budget,
+# ~23 min), the 2D encoders aligned to the 3D ones (align stage, 5000 steps, ~40 min) and the
+# lift-and-control lifter (~10 min). Resumable: rerun after an interruption (Ctrl-C or `kill`
+# writes a checkpoint).
 # Full-precision checkpoints stay in $(MOTION_RUNS); data/ gets the fp16 inference copies.
 MOTION_RUNS  ?= runs/motion
 MOTION_TRAIN := $(PY) -m physlab.motion.train --num-threads 2 --text-cache $(MOTION_RUNS)/text_cache.npz
