@@ -731,13 +731,13 @@ class Generator:
         # The result is the clean estimate x̂₀ of the last step, not the sampler's x at the
         # first training level (ᾱ_0 < 1 in MLD's schedule): that x keeps ~70 % of the last
         # step's residual x_t − √ᾱ_t x̂₀ and so undoes most of a last-step guidance.
-        feats, joints = self._decode(x0)                            # (39, 137), (40, 22, 3)
+        feats, joints = self._decode(x0)                            # (T, D), (N, 22, 3)
         if body_constraints and np.all(np.isfinite(joints)):
             lengths = clip_bone_lengths(c["keypose"][None]) if c["has_keypose"] else None
             toes = [TRAJECTORY_JOINTS.index(j) for j in FOOT_TOES]
-            pinned = np.zeros((N, len(toes)), dtype=bool)
-            if guided and (inference_guidance > 0 or guidance_final > 0):
-                pinned = c["traj_mask"][:, toes] | sk["traj_mask"][:, toes]
+            met = guided and (inference_guidance > 0 or guidance_final > 0)  # toes on strokes
+            pinned = (c["traj_mask"][:, toes] | sk["traj_mask"][:, toes] if met
+                      else np.zeros((N, len(toes)), dtype=bool))
             if c["has_keypose"] or sk["has_keypose"]:
                 pinned[c["key_frame"]] = True
             joints = constrain_body(joints, lengths, lock=bool(foot_lock), pinned=pinned)
