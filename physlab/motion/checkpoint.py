@@ -138,6 +138,7 @@ def _build(ckpt):
         return base
     sketch = any(k.startswith("sketch_traj_encoder.") for k in ckpt["model"])
     return ControlledDenoiser(base, single_controlnet=ckpt["single_controlnet"],
+                              double_controlnet=bool(ckpt.get("double_controlnet", False)),
                               sketch_encoders=sketch)
 
 

@@ -25,7 +25,10 @@ Rows of the table:
 * ``keypose + trajectory + guidance`` — the same plus the inference guidance (L-BFGS
   post-optimisation of the last x̂₀, :data:`GUIDED`; the default of ``generate``);
 * ``single ControlNet`` (and ``+ guidance``) — the Table 2 ablation, only with
-  ``--single-controlnet CKPT``. The paper's ablations run without inference guidance.
+  ``--single-controlnet CKPT``;
+* ``double ControlNet`` (and ``+ guidance``) — Table 2's other ablation (a keypose
+  ControlNet beside the trajectory one, residuals added), only with ``--double-controlnet
+  CKPT``. The paper's ablations run without inference guidance.
 
 Columns (:mod:`physlab.motion.metrics`):
 
@@ -62,7 +65,7 @@ sphere embedding, so not comparable with HumanML3D numbers.
 Usage::
 
     python -m physlab.motion.evaluate --control runs/control.pt \\
-        [--single-controlnet runs/single.pt] [--windows 64] [--steps 50] [--guidance 2.5] [--control-guidance 1] \\
+        [--single-controlnet runs/single.pt] [--double-controlnet runs/double.pt] [--windows 64] [--steps 50] [--guidance 2.5] [--control-guidance 1] \\
         [--seed 0] [--out runs/eval] [--no-progress]
 
     from physlab.motion.evaluate import evaluate
@@ -116,6 +119,7 @@ __all__ = [
     "MIN_T_R",
     "GUIDANCE_VARIANTS",
     "ROW_NAMES",
+    "VARIANTS",
     "clip_metrics",
     "eval_conditions",
     "evaluate",
@@ -133,7 +137,11 @@ __all__ = [
 #: Rows of the table, in order (the "single ControlNet" rows only with a second checkpoint).
 ROW_NAMES = ("real clips", "text only", "keypose + trajectory",
              "keypose + trajectory + guidance", "single ControlNet",
-             "single ControlNet + guidance")
+             "single ControlNet + guidance", "double ControlNet", "double ControlNet + guidance")
+#: The Table 2 variants: evaluate's keyword and CLI flag -> (row name, the checkpoint's flag).
+VARIANTS = {"--control": ("keypose + trajectory", None),
+            "--single-controlnet": ("single ControlNet", "single_controlnet"),
+            "--double-controlnet": ("double ControlNet", "double_controlnet")}
 #: Generator options of the "+ guidance" rows (post-optimisation of the last x̂₀) and of the
 #: network-only rows.
 GUIDED = {"inference_guidance": 0, "guidance_final": 40}
@@ -291,7 +299,7 @@ def _load(path, flag, need_control=True):
             f"{flag} checkpoint {path} does not exist; train one with `python -m "
             f"physlab.motion.train --stage base --out runs/base.pt` then `python -m "
             f"physlab.motion.train --stage control --base-ckpt runs/base.pt --out {path}`"
-            + (" --single-controlnet" if flag == "--single-controlnet" else "")
+            + (f" {flag}" if flag in ("--single-controlnet", "--double-controlnet") else "")
             + " (add --smoke for a seconds-long test model)")
     gen = Generator.from_checkpoint(path)
     if not need_control:
@@ -300,13 +308,16 @@ def _load(path, flag, need_control=True):
         raise ValueError(f"{flag} {path} is a '{gen.stage}' (text-only) checkpoint; give a "
                          f"control checkpoint (`python -m physlab.motion.train --stage control "
                          f"--base-ckpt {path} --out runs/control.pt`)")
-    single = bool(gen.model.single_controlnet)
-    if flag == "--control" and single:
-        warnings.warn(f"--control {path} is a single-ControlNet checkpoint; its row is "
-                      f"labelled 'keypose + trajectory'")
-    if flag == "--single-controlnet" and not single:
-        warnings.warn(f"--single-controlnet {path} was not trained with single_controlnet="
-                      f"True; its row is labelled 'single ControlNet' anyway")
+    trained = [key for _, key in VARIANTS.values()
+               if key is not None and getattr(gen.model, key, False)]
+    if flag in VARIANTS:
+        row, key = VARIANTS[flag]
+        if key is None and trained:
+            warnings.warn(f"--control {path} is a {trained[0].split('_')[0]}-ControlNet "
+                          f"checkpoint; its row is labelled '{row}'")
+        elif key is not None and key not in trained:
+            warnings.warn(f"{flag} {path} was not trained with {key}=True; its row is "
+                          f"labelled '{row}' anyway")
     return gen
 
 
@@ -356,7 +367,7 @@ def _text_motion_metrics(evaluator, data, seed):
 def evaluate(control, single_controlnet=None, windows=64, steps=50, guidance=2.5, seed=0,
              out=None, progress=True, data_root=None, body_constraints=True,
              control_guidance=1.0, guidance_variants=False, evaluator="default",
-             foot_lock=True, frequencies=None):
+             foot_lock=True, frequencies=None, double_controlnet=None):
     """Evaluate a control checkpoint on held-out Bandai-Namco windows (module docstring).
 
     Keyword names match the CLI flags.
@@ -365,7 +376,8 @@ def evaluate(control, single_controlnet=None, windows=64, steps=50, guidance=2.5
     ----------
     control : path of a control checkpoint (``python -m physlab.motion.train --stage
         control``).
-    single_controlnet : None or path of a ``--single-controlnet`` control checkpoint.
+    single_controlnet, double_controlnet : None or paths of ``--single-controlnet`` /
+        ``--double-controlnet`` control checkpoints (Table 2's ablations).
     windows : int >= 1, held-out windows evaluated.
     steps : int >= 1, DDIM steps; guidance : float >= 0, text CFG scale w (Eq. (14)) of the
     text-only row; control_guidance : float >= 0, the text scale of the controlled rows
@@ -403,8 +415,10 @@ def evaluate(control, single_controlnet=None, windows=64, steps=50, guidance=2.5
         raise ValueError(f"guidance must be a finite number >= 0 (Sketch2Anim uses 7.5), got "
                          f"{guidance!r}")
     gens = {"keypose + trajectory": _load(control, "--control")}
-    if single_controlnet is not None:
-        gens["single ControlNet"] = _load(single_controlnet, "--single-controlnet")
+    for flag, path in (("--single-controlnet", single_controlnet),
+                       ("--double-controlnet", double_controlnet)):
+        if path is not None:
+            gens[VARIANTS[flag][0]] = _load(path, flag)
 
     data = held_out_windows(n, data_root=data_root)
     conds = eval_conditions(data["joints"], seed=seed)
@@ -443,7 +457,9 @@ def evaluate(control, single_controlnet=None, windows=64, steps=50, guidance=2.5
     if out is not None:
         out = Path(out)
         config = {"control": str(control), "single_controlnet": None if single_controlnet
-                  is None else str(single_controlnet), "windows": len(conds),
+                  is None else str(single_controlnet), "double_controlnet": None
+                  if double_controlnet is None else str(double_controlnet),
+                  "windows": len(conds),
                   "windows_available": data["n_available"], "steps": int(steps),
                   "guidance": float(guidance), "control_guidance": float(control_guidance),
                   "seed": int(seed), "min_t_r": MIN_T_R,
@@ -1056,6 +1072,9 @@ def _parser():
                    help="control checkpoint (train --stage control); required unless --blending")
     p.add_argument("--single-controlnet", default=None,
                    help="optional single-ControlNet control checkpoint (Table 2 ablation)")
+    p.add_argument("--double-controlnet", default=None,
+                   help="optional double-ControlNet control checkpoint (Table 2 ablation: "
+                        "train --stage control --double-controlnet)")
     p.add_argument("--windows", type=int, default=64, help="held-out windows (default 64)")
     p.add_argument("--steps", type=int, default=50, help="DDIM steps (default 50)")
     p.add_argument("--guidance", type=float, default=2.5,
@@ -1149,6 +1168,7 @@ def main(argv=None):
         raise ValueError("--control is required (a control checkpoint, e.g. "
                          "data/motion/sketch2anim_control.pt) unless --blending is given")
     rows = {} if args.no_3d else evaluate(args.control, single_controlnet=args.single_controlnet,
+                    double_controlnet=args.double_controlnet,
                     windows=args.windows, steps=args.steps, guidance=args.guidance,
                     control_guidance=args.control_guidance,
                     seed=args.seed, out=args.out, progress=not args.no_progress,

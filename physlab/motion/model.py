@@ -759,6 +759,10 @@ class ControlledDenoiser(nn.Module):
         mode so its dropout is off).
     single_controlnet : bool, the Table 2 "Single ControlNet" ablation: one ControlNet over
         the unified trajectory + keypose matrix (:func:`unified_frames`), no adapter.
+    double_controlnet : bool, the Table 2 "Double ControlNet" ablation (supp. A.2): the
+        keypose branch (``self.adapter``: ``a' = a + E_k(K)``, its own copy of the encoder and
+        zero layers) runs beside the trajectory ControlNet instead of on its residuals, and
+        the two residual lists are added, ``r + r'``, before they enter the base.
     traj_encoder, keypose_encoder : optional replacements of ``E_tr`` / ``E_k``.
     sketch_encoders : bool, also build the 2D encoders ``E^2D_tr``
         (:func:`sketch_trajectory_encoder`) and ``E^2D_k`` (:class:`SketchKeyposeEncoder`)
@@ -769,10 +773,14 @@ class ControlledDenoiser(nn.Module):
     """
 
     def __init__(self, base: MotionDenoiser, single_controlnet=False, traj_encoder=None,
-                 keypose_encoder=None, sketch_encoders=False):
+                 keypose_encoder=None, sketch_encoders=False, double_controlnet=False):
         super().__init__()
+        if single_controlnet and double_controlnet:
+            raise ValueError("single_controlnet and double_controlnet are two different Table 2 "
+                             "ablations; set at most one")
         self.config = base.config
         self.single_controlnet = bool(single_controlnet)
+        self.double_controlnet = bool(double_controlnet)
         self.base = base
         for p in self.base.parameters():
             p.requires_grad_(False)
@@ -784,6 +792,7 @@ class ControlledDenoiser(nn.Module):
         else:
             self.controlnet = TrajectoryControlNet(base, traj_encoder)
             self.adapter = KeyposeAdapter(base, keypose_encoder)
+        if not (self.single_controlnet or self.double_controlnet):
             # The ControlNet's residuals reach the output only through the adapter's zero
             # layers Z'. With the ControlNet's own Z_i zero too, the gradient of each factor
             # is proportional to the other (both 0 at the start), so the trajectory branch
@@ -801,9 +810,9 @@ class ControlledDenoiser(nn.Module):
 
     def add_sketch_encoders(self):
         """Build untrained 2D encoders ``E^2D_tr`` and ``E^2D_k`` (Sec. 5); returns them."""
-        if self.single_controlnet:
-            raise ValueError("the single-ControlNet ablation has no 2D encoders; align the "
-                             "ControlNet + adapter model")
+        if self.single_controlnet or self.double_controlnet:
+            raise ValueError(f"the {'single' if self.single_controlnet else 'double'}-ControlNet "
+                             f"ablation has no 2D encoders; align the ControlNet + adapter model")
         self.sketch_traj_encoder = sketch_trajectory_encoder(self.config)
         self.sketch_keypose_encoder = SketchKeyposeEncoder(self.config)
         return self.sketch_traj_encoder, self.sketch_keypose_encoder
@@ -858,6 +867,11 @@ class ControlledDenoiser(nn.Module):
         else:
             e_tr, e_k = self.condition_embeddings(cond)
             r = self.controlnet.from_embedding(x_t, t, text_emb, e_tr, drop_text)
-            res = self.adapter.from_embedding(x_t, t, text_emb, e_k, r, drop_text,
-                                              keypose_mask=km)              # r'
+            if self.double_controlnet:                     # two parallel ControlNets: r + r'
+                rk = self.adapter.from_embedding(x_t, t, text_emb, e_k, None, drop_text,
+                                                 keypose_mask=km)
+                res = [u + v for u, v in zip(r, rk)]
+            else:
+                res = self.adapter.from_embedding(x_t, t, text_emb, e_k, r, drop_text,
+                                                  keypose_mask=km)          # r'
         return self.base(x_t, t, text_emb, drop_text, residuals=res)        # Eq. (4)

@@ -181,6 +181,8 @@ class TrainConfig:
     single_joint: float = 0.0       # extra p(a single-joint stroke) in a random condition
                                     # (the "Average" protocol's kind; uniform: 6/63)
     single_controlnet: bool = False  # Table 2 ablation: one ControlNet for both conditions
+    double_controlnet: bool = False  # Table 2 ablation: keypose ControlNet beside the
+                                    # trajectory one (residuals added), not an adapter on it
     direct_2d: bool = False         # control stage on drawn (projected) conditions through 2D
                                     # encoders from the start: Table 1's direct 2D baseline
     lambda_match: float = 1.0       # align stage, Eq. (13): weight of L_match (Eq. 10; 0 = off)
@@ -267,10 +269,17 @@ class TrainConfig:
             raise ValueError(f"steps must be <= 10,000,000, got {self.steps}")
         if self.stage == "control" and not self.base_ckpt:
             raise ValueError("stage 'control' needs --base-ckpt <checkpoint of stage 'base'>")
-        if self.direct_2d and (self.stage != "control" or self.single_controlnet):
+        if self.single_controlnet and self.double_controlnet:
+            raise ValueError("--single-controlnet and --double-controlnet are two Table 2 "
+                             "ablations; give at most one")
+        if (self.single_controlnet or self.double_controlnet) and self.stage != "control":
+            raise ValueError("--single-controlnet / --double-controlnet are variants of "
+                             "--stage control")
+        if self.direct_2d and (self.stage != "control" or self.single_controlnet
+                               or self.double_controlnet):
             raise ValueError("--direct-2d trains the ControlNet + adapter stage on drawn "
                              "conditions: use it with --stage control, without "
-                             "--single-controlnet")
+                             "--single-controlnet or --double-controlnet")
         if self.stage == "align" and not self.base_ckpt:
             raise ValueError("stage 'align' needs --base-ckpt <checkpoint of stage 'control'> "
                              "(the generator whose 3D encoders the 2D ones learn to match)")
@@ -552,9 +561,10 @@ def train(**kwargs):
             raise ValueError("stage 'align' runs in one process (its 2D encoders are small); "
                              "start it with python, not torchrun")
         base_ckpt = load_checkpoint(cfg.base_ckpt)
-        if base_ckpt["stage"] not in ("control", "align") or base_ckpt["single_controlnet"]:
-            raise ValueError(f"--base-ckpt {cfg.base_ckpt} is a '{base_ckpt['stage']}'"
-                             f"{' single-ControlNet' if base_ckpt.get('single_controlnet') else ''}"
+        variant = ("single-ControlNet " if base_ckpt.get("single_controlnet") else
+                   "double-ControlNet " if base_ckpt.get("double_controlnet") else "")
+        if base_ckpt["stage"] not in ("control", "align") or variant:
+            raise ValueError(f"--base-ckpt {cfg.base_ckpt} is a {variant}'{base_ckpt['stage']}'"
                              f" checkpoint; stage 'align' needs the ControlNet + adapter "
                              f"model of --stage control")
     if cfg.stage == "control":
@@ -618,6 +628,7 @@ def train(**kwargs):
     else:
         base.load_state_dict(base_ckpt["model"])
         model = ControlledDenoiser(base, single_controlnet=cfg.single_controlnet,
+                                   double_controlnet=cfg.double_controlnet,
                                    sketch_encoders=cfg.direct_2d)
     params = [p for p in model.parameters() if p.requires_grad]
     opt = torch.optim.AdamW(params, lr=cfg.lr, weight_decay=cfg.weight_decay)
@@ -629,6 +640,10 @@ def train(**kwargs):
         if cfg.stage == "control" and resume["single_controlnet"] != cfg.single_controlnet:
             raise ValueError(f"{out} was trained with single_controlnet="
                              f"{resume['single_controlnet']}; use another --out")
+        if cfg.stage == "control" and (bool(resume.get("double_controlnet", False))
+                                       != cfg.double_controlnet):
+            raise ValueError(f"{out} was trained with double_controlnet="
+                             f"{resume.get('double_controlnet', False)}; use another --out")
         model.load_state_dict(resume["model"])
         opt.load_state_dict(resume["optimizer"])
         step = int(resume["step"])
@@ -665,6 +680,7 @@ def train(**kwargs):
             save_checkpoint(out, {
                 "kind": CHECKPOINT_KIND, "version": CHECKPOINT_VERSION, "stage": cfg.stage,
                 "single_controlnet": cfg.single_controlnet,
+                "double_controlnet": cfg.double_controlnet,
                 "model_config": model_cfg.to_dict(), "train_config": dataclasses.asdict(cfg),
                 "model": model.state_dict(), "optimizer": opt.state_dict(), "step": step,
                 "rng": rngs, "feature_stats": {"mean": stats.mean, "std": stats.std},

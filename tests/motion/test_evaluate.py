@@ -40,8 +40,10 @@ def ckpts(real_data, tmp_path_factory):
                     **SMOKE)["path"]
     single = train(stage="control", base_ckpt=str(base), out=str(d / "single.pt"),
                    single_controlnet=True, **SMOKE)["path"]
+    double = train(stage="control", base_ckpt=str(base), out=str(d / "double.pt"),
+                   double_controlnet=True, **SMOKE)["path"]
     torch.set_num_threads(1)                         # train() sets its own thread count
-    return {"base": base, "control": control, "single": single}
+    return {"base": base, "control": control, "single": single, "double": double}
 
 
 @pytest.fixture(scope="module")
@@ -49,7 +51,7 @@ def rows(ckpts):
     # the smoke models' raw joints: the rigid-bone / floor projection of a barely trained
     # model's garbage would move the controlled joints (tested in test_body / the shipped model)
     return evaluate(ckpts["control"], single_controlnet=ckpts["single"], body_constraints=False,
-                    **FAST)
+                    double_controlnet=ckpts["double"], **FAST)
 
 
 def test_all_rows_with_finite_numbers(rows):
@@ -89,7 +91,7 @@ def test_single_controlnet_row_only_with_second_checkpoint(ckpts):
 def test_guidance_rows_land_closer_to_the_conditions(rows):
     """The inference guidance optimises the final x̂₀ towards the keypose and trajectories:
     even a smoke model then lands far closer than the networks alone."""
-    for name in ("keypose + trajectory", "single ControlNet"):
+    for name in ("keypose + trajectory", "single ControlNet", "double ControlNet"):
         plain, guided = rows[name], rows[name + " + guidance"]
         assert guided["trajectory_error_3d"] < 0.5 * plain["trajectory_error_3d"], (plain, guided)
         assert guided["keypose_mpjpe_3d"] < 0.5 * plain["keypose_mpjpe_3d"], (plain, guided)
@@ -97,7 +99,7 @@ def test_guidance_rows_land_closer_to_the_conditions(rows):
 
 def test_evaluation_is_deterministic(ckpts, rows):
     again = evaluate(ckpts["control"], single_controlnet=ckpts["single"], body_constraints=False,
-                     **FAST)
+                     double_controlnet=ckpts["double"], **FAST)
     for name in ROW_NAMES:
         for k in COLUMNS:
             if k != "seconds_per_clip":
@@ -150,7 +152,7 @@ def test_guidance_variant_rows(ckpts):
     res = evaluate(ckpts["control"], single_controlnet=ckpts["single"], windows=1, steps=2,
                    progress=False, body_constraints=False, guidance_variants=True)
     extra = [f"keypose + trajectory {k}" for k in GUIDANCE_VARIANTS]
-    assert list(res) == [*ROW_NAMES[:4], *extra, *ROW_NAMES[4:]]
+    assert list(res) == [*ROW_NAMES[:4], *extra, *ROW_NAMES[4:6]]
     for name in extra:
         assert res[name]["seconds_per_clip"] > 0 and math.isfinite(res[name]["auj"])
     with pytest.raises(TypeError, match="guidance_variants"):
@@ -160,9 +162,10 @@ def test_guidance_variant_rows(ckpts):
 def test_cli_writes_table_and_rows(ckpts, tmp_path, capsys):
     out = tmp_path / "eval"
     res = main(["--control", str(ckpts["control"]), "--windows", "3", "--steps", "1",
-                "--out", str(out), "--no-progress"])
+                "--out", str(out), "--no-progress", "--double-controlnet", str(ckpts["double"])])
     printed = capsys.readouterr().out
     assert BANDAI_NAMCO_ATTRIBUTION in printed and "| keypose + trajectory |" in printed
+    assert "| double ControlNet |" in printed and "single ControlNet" not in printed
     assert (out / "table.md").read_text().startswith("| method |")
     saved = json.loads((out / "rows.json").read_text())
     assert saved["rows"] == res and saved["config"]["windows"] == 3
@@ -175,6 +178,8 @@ def test_missing_checkpoint(ckpts, tmp_path):
         evaluate(tmp_path / "nope.pt", **FAST)
     with pytest.raises(FileNotFoundError, match="--single-controlnet"):
         evaluate(ckpts["control"], single_controlnet=tmp_path / "nope.pt", **FAST)
+    with pytest.raises(FileNotFoundError, match="--stage control .*--double-controlnet"):
+        evaluate(ckpts["control"], double_controlnet=tmp_path / "nope.pt", **FAST)
     from physlab._cli import guard
     assert guard("python -m physlab.motion.evaluate", main,
                  ["--control", str(tmp_path / "nope.pt"), "--no-progress"]) == 2
@@ -202,6 +207,11 @@ def test_single_controlnet_flag_warns_for_a_plain_control_checkpoint(ckpts):
     with pytest.warns(UserWarning, match="single_controlnet"):
         evaluate(ckpts["control"], single_controlnet=ckpts["control"], windows=1, steps=1,
                  progress=False)
+    with pytest.warns(UserWarning, match="double_controlnet=True"):
+        evaluate(ckpts["control"], double_controlnet=ckpts["single"], windows=1, steps=1,
+                 progress=False)
+    with pytest.warns(UserWarning, match="--control .* is a double-ControlNet"):
+        evaluate(ckpts["double"], windows=1, steps=1, progress=False)
 
 
 def test_motion_statistics_analytic():

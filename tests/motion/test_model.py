@@ -98,6 +98,10 @@ def test_shapes_base_controlled_single():
         ctrl = ControlledDenoiser(base, single_controlnet=single).eval()
         assert ctrl(x, t, a, cond).shape == x.shape
         assert (ctrl.adapter is None) == single
+    double = ControlledDenoiser(base, double_controlnet=True).eval()
+    assert double(x, t, a, cond).shape == x.shape and double.adapter is not None
+    with pytest.raises(ValueError, match="at most one"):
+        ControlledDenoiser(base, single_controlnet=True, double_controlnet=True)
 
 
 def test_zero_init_controlled_equals_base_exactly():
@@ -106,8 +110,9 @@ def test_zero_init_controlled_equals_base_exactly():
     x, t, a, cond = _inputs(cfg=cfg)
     drop = torch.tensor([False, True, False])
     ref = base(x, t, a, drop)
-    for single in (False, True):
-        ctrl = ControlledDenoiser(base, single_controlnet=single).eval()
+    for single, double in ((False, False), (True, False), (False, True)):
+        ctrl = ControlledDenoiser(base, single_controlnet=single,
+                                  double_controlnet=double).eval()
         assert torch.equal(ctrl(x, t, a, cond, drop), ref)
         with torch.no_grad():
             assert torch.equal(ctrl(x, t, a, cond, drop), ref)
@@ -115,6 +120,36 @@ def test_zero_init_controlled_equals_base_exactly():
         sd_b, sd_c = base.encoder.state_dict(), ctrl.controlnet.encoder.state_dict()
         assert all(torch.equal(sd_b[k], sd_c[k]) for k in sd_b)
         assert not any(p.requires_grad for p in ctrl.base.parameters())
+
+
+def test_double_controlnet_runs_its_branches_side_by_side():
+    """Table 2's double ControlNet: the keypose branch does not see the trajectory
+    ControlNet's residuals (in the adapter it does), the two residual lists are added, and
+    both branches learn from the first step (both zero layers start at 0)."""
+    cfg = DenoiserConfig(**TINY)
+    base = MotionDenoiser(cfg).eval()
+    x, t, a, cond = _inputs(cfg=cfg)
+    other = {**cond, "trajectory": cond["trajectory"] + 1.0}
+    for double in (False, True):
+        ctrl = ControlledDenoiser(base, double_controlnet=double).eval()
+        with torch.no_grad():                              # non-zero output layers
+            for z in [*ctrl.controlnet.zero, *ctrl.adapter.zero]:
+                z.weight.normal_(0.0, 0.1)
+        e_k = ctrl.condition_embeddings(cond)[1]
+        res = []
+        for c in (cond, other):
+            r = ctrl.controlnet.from_embedding(x, t, a, ctrl.condition_embeddings(c)[0])
+            rk = ctrl.adapter.from_embedding(x, t, a, e_k, None if double else r)
+            res.append(rk)
+            if double:                                     # forward = base on r + r'
+                total = [u + v for u, v in zip(r, rk)]
+                assert torch.allclose(ctrl(x, t, a, c), base(x, t, a, residuals=total))
+        same = all(torch.equal(u, v) for u, v in zip(*res))
+        assert same == double
+    ctrl = ControlledDenoiser(base, double_controlnet=True).train()
+    ctrl(x, t, a, cond).square().mean().backward()
+    for branch in (ctrl.controlnet, ctrl.adapter):
+        assert all(float(z.weight.grad.abs().max()) > 0 for z in branch.zero)
 
 
 def test_controls_change_output_after_one_step_and_base_stays_frozen():

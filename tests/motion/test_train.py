@@ -252,6 +252,26 @@ def test_control_smoke(base_run, tmp_path):
 
 
 
+def test_double_controlnet_smoke_saves_reloads_and_guards_its_variant(base_run, tmp_path):
+    out = tmp_path / "double.pt"
+    res = train(stage="control", base_ckpt=str(base_run["path"]), out=str(out),
+                double_controlnet=True, steps=1, **SMOKE)
+    assert res["step"] == 1 and np.isfinite(res["loss"])
+    assert load_checkpoint(out)["double_controlnet"] is True
+    model = load_model(out)["model"]
+    assert model.double_controlnet and not model.single_controlnet
+    with pytest.raises(ValueError, match="double_controlnet=True"):      # resume as another
+        train(stage="control", base_ckpt=str(base_run["path"]), out=str(out), steps=2,
+              **SMOKE)
+    with pytest.raises(ValueError, match="needs the ControlNet \\+ adapter model"):
+        train(stage="align", base_ckpt=str(out), out=str(tmp_path / "a.pt"), steps=1, **SMOKE)
+    with pytest.raises(ValueError, match="at most one"):
+        TrainConfig(stage="control", base_ckpt="b.pt", single_controlnet=True,
+                    double_controlnet=True)
+    with pytest.raises(ValueError, match="variants of --stage control"):
+        TrainConfig(stage="base", double_controlnet=True)
+
+
 def test_align_smoke_trains_only_the_2d_encoders(base_run, tmp_path):
     control = train(stage="control", base_ckpt=str(base_run["path"]),
                     out=str(tmp_path / "control.pt"), steps=2, **SMOKE)
