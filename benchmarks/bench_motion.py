@@ -14,7 +14,8 @@ What is measured
    :func:`physlab.motion.train.train` for stage ``base`` (text-conditioned denoiser) and
    stage ``control`` (trajectory ControlNet + keypose adapter on the frozen base), with the
    default model size (``DenoiserConfig``) and batch, one process with ``--threads`` threads
-   (2; ``torchrun`` with two 1-thread processes is not faster on this machine).
+   (2; ``torchrun`` with two 1-thread processes is not faster on this machine); both again
+   with ``precision="bf16"`` (forward passes in bfloat16 autocast), as a ratio to float32.
    The weights are whatever these few steps give — sampling speed does not depend on them.
 2. **Sampling** with the shipped generator (``--checkpoint``, default
    :data:`~physlab.motion.sampling.DEFAULT_CHECKPOINT`; the trained weights matter, since
@@ -96,6 +97,10 @@ def main(argv=None):
         base = train(stage="base", out=str(d / "base.pt"), **common)
         control = train(stage="control", base_ckpt=str(base["path"]), out=str(d / "control.pt"),
                         **common)
+        bf16 = {"base": train(stage="base", out=str(d / "base16.pt"), precision="bf16",
+                              **common),
+                "control": train(stage="control", base_ckpt=str(base["path"]), precision="bf16",
+                                 out=str(d / "control16.pt"), **common)}
         sizes = {k: Path(r["path"]).stat().st_size / 2**20 for k, r in
                  (("base", base), ("control", control))}
         torch.set_num_threads(args.sample_threads)
@@ -152,6 +157,9 @@ def main(argv=None):
           f"{control['n_params']:,} ({control['n_trainable']:,})")
     print(f"training, base stage | {base['windows_per_s']:.0f} windows/s")
     print(f"training, control stage | {control['windows_per_s']:.0f} windows/s")
+    for k, ref in (("base", base), ("control", control)):
+        print(f"training, {k} stage, --precision bf16 | {bf16[k]['windows_per_s']:.0f} "
+              f"windows/s ({bf16[k]['windows_per_s'] / ref['windows_per_s']:.2f}x float32)")
     print(f"sampling from | {Path(path).name}")
     print(f"clip, text only, CFG, DDIM {steps} | {t_text:.3f} s")
     print(f"clip, keypose + trajectory, networks only, DDIM {steps} | {t_ctrl:.3f} s")
@@ -173,8 +181,8 @@ def main(argv=None):
     print(f"\ntarget <= {TARGET_SECONDS_PER_CLIP} s per guided clip on {args.sample_threads} "
           f"thread(s): {verdict}; paper: {PAPER_SECONDS_PER_CLIP} s on an RTX 4090 → ratio "
           f"{t_guided / PAPER_SECONDS_PER_CLIP:.2f}")
-    out.update(base=base, control=control, seconds_text=t_text, seconds_control=t_ctrl,
-               seconds_guided=t_guided, seconds_variants=t_variants,
+    out.update(base=base, control=control, bf16=bf16, seconds_text=t_text,
+               seconds_control=t_ctrl, seconds_guided=t_guided, seconds_variants=t_variants,
                seconds_reference=t_ref, seconds_sketch=t_sketch, peak_mib=peak,
                checkpoint_mib=sizes, seconds_storyboard=t_board)
     return out

@@ -56,6 +56,7 @@ def test_bench_motion_quick_runs(real_data, capsys):
     bench_motion = _load("bench_motion")
     out = bench_motion.main(["--quick", "--threads", "1", "--repeats", "1"])
     assert out["base"]["windows_per_s"] > 0 and out["control"]["windows_per_s"] > 0
+    assert all(r["windows_per_s"] > 0 for r in out["bf16"].values())
     assert out["seconds_control"] > 0 and out["seconds_reference"] > 0
     assert out["seconds_guided"] > 0 and all(t > 0 for t in out["seconds_variants"].values())
     assert "RTX 4090" in capsys.readouterr().out

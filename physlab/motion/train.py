@@ -112,6 +112,7 @@ from .text import hash_encoder  # noqa: F401 - part of this module's API
 
 __all__ = [
     "SCHEDULERS",
+    "PRECISIONS",
     "SMOKE_MODEL",
     "TrainConfig",
     "action_weights",
@@ -147,6 +148,8 @@ DEFAULT_SMOOTH_BASIS = 16
 
 #: Training stages: the text denoiser, its ControlNet + keypose adapter, the 2D encoders.
 STAGES = ("base", "control", "align")
+#: ``--precision`` choices: float32 throughout, or the forward passes in bfloat16 autocast.
+PRECISIONS = ("fp32", "bf16")
 #: Model of ``--smoke`` runs: a few seconds on a CPU.
 SMOKE_MODEL = {"d_model": 32, "n_heads": 2, "n_layers": 2, "ff": 64, "dropout": 0.0}
 
@@ -194,6 +197,9 @@ class TrainConfig:
     prediction: str = "sample"      # network output: "sample" (x0, MDM; default) |
                                     # "epsilon" (Sketch2Anim) | "v_prediction"; module doc
     checkpoint_every: int = 500     # steps between checkpoints (and at the end)
+    precision: str = "fp32"         # "fp32" | "bf16": the networks' forward passes under
+                                    # torch.autocast(bfloat16) (weights, optimiser and losses
+                                    # stay float32); ~2x faster on CPUs with AVX512-BF16
     num_threads: int = 0            # torch threads per process; 0 = cores / processes
     data_root: str = ""             # Bandai-Namco folder; "" = <external data>/mocap/bandai_namco
     max_clips: int = 0              # use only the first k training clips (0 = all)
@@ -212,6 +218,9 @@ class TrainConfig:
         for name in ("out", "base_ckpt", "data_root", "text_cache"):   # a Path is welcome, but
             if isinstance(getattr(self, name), os.PathLike):         # the checkpoint stores str
                 setattr(self, name, os.fspath(getattr(self, name)))
+        if self.precision not in PRECISIONS:
+            raise ValueError(f"precision must be one of {PRECISIONS}, got {self.precision!r} "
+                             f"(bf16 runs the forward passes in bfloat16 autocast)")
         if self.stage not in STAGES:
             raise ValueError(f"stage must be one of {STAGES}, got {self.stage!r}")
         if self.scheduler not in SCHEDULERS:
@@ -689,6 +698,9 @@ def train(**kwargs):
                 "train_takes": data["train_takes"]})
         return digests
 
+    def autocast():                      # --precision bf16: forward passes in bfloat16
+        return torch.autocast("cpu", dtype=torch.bfloat16, enabled=cfg.precision == "bf16")
+
     bar = tqdm(total=cfg.steps, initial=step, disable=not (cfg.progress and rank == 0),
                desc=f"train {cfg.stage}")
     loss_v, digests, t_start, n_timed = float("nan"), None, None, 0
@@ -706,7 +718,8 @@ def train(**kwargs):
             drop = torch.rand(B, generator=g) < p_drop                           # (B,) CFG
             target = sched.training_target(x0, noise, t)                         # ε, v or x0
             if cfg.stage == "base":
-                out_ = net(x_t, t, a, drop)
+                with autocast():
+                    out_ = net(x_t, t, a, drop).float()
                 loss = recon_loss(out_, target, t, sched, cfg.snr_cap)
                 parts = {}
                 if cfg.lambda_vel > 0:
@@ -719,14 +732,17 @@ def train(**kwargs):
                 sketch = sketch_batch(cond, rng, noise=cfg.sketch_noise)
 
                 def generation_loss(out, idx=idx, cond=cond):                    # Eq. (9)
-                    x0_hat, _ = sched.split_output(out, x_t, t)
-                    l_tr, l_key = control_losses(x0_hat, joints_all[idx], cond, mean, std,
-                                                 model_cfg.representation)
+                    with torch.autocast("cpu", enabled=False):       # losses in float32
+                        x0_hat, _ = sched.split_output(out.float(), x_t, t)
+                        l_tr, l_key = control_losses(x0_hat, joints_all[idx], cond, mean,
+                                                     std, model_cfg.representation)
                     return cfg.lambda_tr * l_tr + cfg.lambda_key * l_key
 
-                terms = alignment_losses(model, x_t, t, a, cond, sketch, target, drop,
-                                         tau=cfg.tau, recon=cfg.lambda_recon > 0,
-                                         generation_loss=generation_loss)
+                with autocast():
+                    terms = alignment_losses(model, x_t, t, a, cond, sketch, target, drop,
+                                             tau=cfg.tau, recon=cfg.lambda_recon > 0,
+                                             generation_loss=generation_loss)
+                terms = {k: v.float() for k, v in terms.items()}
                 loss = (cfg.lambda_match * terms["match"] + cfg.lambda_recon * terms["recon"]
                         + cfg.lambda_contrast * terms["contrast"])                # Eq. (13)
                 parts = {k: v.item() for k, v in terms.items()}
@@ -735,7 +751,8 @@ def train(**kwargs):
                                        cfg.drop_keypose, cfg.drop_trajectory, cfg.single_joint)
                 net_cond = ({**cond, **sketch_batch(cond, rng, noise=cfg.sketch_noise)}
                             if cfg.direct_2d else cond)
-                out_ = net(x_t, t, a, net_cond, drop)
+                with autocast():
+                    out_ = net(x_t, t, a, net_cond, drop).float()
                 l_rec = recon_loss(out_, target, t, sched, cfg.snr_cap)          # Eq. (5)
                 x0_hat, _ = sched.split_output(out_, x_t, t)                     # Eq. (7)
                 l_tr, l_key = control_losses(x0_hat, joints_all[idx], cond, mean, std,

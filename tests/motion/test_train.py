@@ -16,6 +16,7 @@ from physlab.motion.dataset import (MIRROR_PERMUTATION, TRAJECTORY_JOINTS,
 from physlab.motion.features import FeatureStats, joints_to_features
 from physlab.motion.model import ControlledDenoiser, MotionDenoiser
 from physlab.motion.train import (
+    PRECISIONS,
     TrainConfig,
     action_weights,
     condition_batch,
@@ -270,6 +271,28 @@ def test_double_controlnet_smoke_saves_reloads_and_guards_its_variant(base_run, 
                     double_controlnet=True)
     with pytest.raises(ValueError, match="variants of --stage control"):
         TrainConfig(stage="base", double_controlnet=True)
+
+
+def test_bf16_precision_runs_every_stage_close_to_float32(base_run, tmp_path):
+    """--precision bf16 puts the forward passes under bfloat16 autocast: the first step's
+    loss moves by bfloat16 rounding only (same seed, same batch), and the weights, optimiser
+    and checkpoint stay float32."""
+    losses = {}
+    for prec in PRECISIONS:
+        res = train(stage="base", out=str(tmp_path / f"b_{prec}.pt"), steps=1, precision=prec,
+                    **SMOKE)
+        losses[prec] = res["loss"]
+    assert losses["bf16"] != losses["fp32"]                           # autocast is on
+    assert losses["bf16"] == pytest.approx(losses["fp32"], rel=0.05)
+    ckpt = load_checkpoint(tmp_path / "b_bf16.pt")
+    assert all(v.dtype == torch.float32 for v in ckpt["model"].values() if v.is_floating_point())
+    control = train(stage="control", base_ckpt=str(base_run["path"]), precision="bf16",
+                    out=str(tmp_path / "c.pt"), steps=1, **SMOKE)
+    align = train(stage="align", base_ckpt=str(control["path"]), precision="bf16",
+                  out=str(tmp_path / "a.pt"), steps=1, **SMOKE)
+    assert np.isfinite(control["loss"]) and np.isfinite(align["loss"])
+    with pytest.raises(ValueError, match="precision must be one of"):
+        TrainConfig(stage="base", precision="fp16")
 
 
 def test_align_smoke_trains_only_the_2d_encoders(base_run, tmp_path):
