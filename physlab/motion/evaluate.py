@@ -299,7 +299,7 @@ def _load(path, flag, need_control=True):
             f"{flag} checkpoint {path} does not exist; train one with `python -m "
             f"physlab.motion.train --stage base --out runs/base.pt` then `python -m "
             f"physlab.motion.train --stage control --base-ckpt runs/base.pt --out {path}`"
-            + (f" {flag}" if flag in ("--single-controlnet", "--double-controlnet") else "")
+            + (f" {flag}" if VARIANTS.get(flag, (None, None))[1] else "")
             + " (add --smoke for a seconds-long test model)")
     gen = Generator.from_checkpoint(path)
     if not need_control:
