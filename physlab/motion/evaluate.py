@@ -138,10 +138,11 @@ __all__ = [
 ROW_NAMES = ("real clips", "text only", "keypose + trajectory",
              "keypose + trajectory + guidance", "single ControlNet",
              "single ControlNet + guidance", "double ControlNet", "double ControlNet + guidance")
-#: The Table 2 variants: evaluate's keyword and CLI flag -> (row name, the checkpoint's flag).
-VARIANTS = {"--control": ("keypose + trajectory", None),
-            "--single-controlnet": ("single ControlNet", "single_controlnet"),
-            "--double-controlnet": ("double ControlNet", "double_controlnet")}
+#: The Table 2 variants: evaluate's keyword and CLI flag -> (row name, the variant its
+#: checkpoint must hold, as :func:`physlab.motion.model.controlnet_variant` names it).
+VARIANTS = {"--control": ("keypose + trajectory", "adapter"),
+            "--single-controlnet": ("single ControlNet", "single"),
+            "--double-controlnet": ("double ControlNet", "double")}
 #: Generator options of the "+ guidance" rows (post-optimisation of the last x̂₀) and of the
 #: network-only rows.
 GUIDED = {"inference_guidance": 0, "guidance_final": 40}
@@ -299,7 +300,7 @@ def _load(path, flag, need_control=True):
             f"{flag} checkpoint {path} does not exist; train one with `python -m "
             f"physlab.motion.train --stage base --out runs/base.pt` then `python -m "
             f"physlab.motion.train --stage control --base-ckpt runs/base.pt --out {path}`"
-            + (f" {flag}" if VARIANTS.get(flag, (None, None))[1] else "")
+            + (f" {flag}" if VARIANTS.get(flag, (None, "adapter"))[1] != "adapter" else "")
             + " (add --smoke for a seconds-long test model)")
     gen = Generator.from_checkpoint(path)
     if not need_control:
@@ -308,16 +309,13 @@ def _load(path, flag, need_control=True):
         raise ValueError(f"{flag} {path} is a '{gen.stage}' (text-only) checkpoint; give a "
                          f"control checkpoint (`python -m physlab.motion.train --stage control "
                          f"--base-ckpt {path} --out runs/control.pt`)")
-    trained = [key for _, key in VARIANTS.values()
-               if key is not None and getattr(gen.model, key, False)]
-    if flag in VARIANTS:
-        row, key = VARIANTS[flag]
-        if key is None and trained:
-            warnings.warn(f"--control {path} is a {trained[0].split('_')[0]}-ControlNet "
-                          f"checkpoint; its row is labelled '{row}'")
-        elif key is not None and key not in trained:
-            warnings.warn(f"{flag} {path} was not trained with {key}=True; its row is "
-                          f"labelled '{row}' anyway")
+    trained = gen.model.variant
+    if flag in VARIANTS and VARIANTS[flag][1] != trained:
+        row, wanted = VARIANTS[flag]
+        kind = "ControlNet + adapter" if trained == "adapter" else f"{trained}-ControlNet"
+        warnings.warn(f"{flag} {path} is a {kind} checkpoint, not a "
+                      f"{'ControlNet + adapter' if wanted == 'adapter' else wanted + '-ControlNet'}"
+                      f" one; its row is labelled '{row}' anyway")
     return gen
 
 

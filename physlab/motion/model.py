@@ -84,7 +84,9 @@ __all__ = [
     "sketch_trajectory_encoder",
     "sketch_trajectory_frames",
     "TrajectoryControlNet",
+    "CONTROLNET_VARIANTS",
     "check_condition",
+    "controlnet_variant",
     "count_parameters",
     "features_to_joints_torch",
     "low_pass_matrix",
@@ -686,6 +688,24 @@ def check_condition(cond, batch, n_joint_frames):
 #: the ControlNet + adapter model (:class:`ControlledDenoiser`; the adapter's Z'_i stay zero).
 CONTROLNET_INIT_STD = 0.1
 
+#: Sketch2Anim Table 2's variants of the controlled model -> the constructor keyword and
+#: checkpoint key that selects it (the ControlNet + keypose adapter, the paper's method, has none).
+CONTROLNET_VARIANTS = {"adapter": None, "single": "single_controlnet",
+                       "double": "double_controlnet"}
+
+
+def controlnet_variant(source):
+    """``"adapter"``, ``"single"`` or ``"double"``: the Table 2 variant of a
+    :class:`ControlledDenoiser` or of a checkpoint dict (its ``single_controlnet`` /
+    ``double_controlnet`` flags; a missing flag means off, as in older checkpoints)."""
+    flag = (source.get if isinstance(source, dict)
+            else lambda key, default: getattr(source, key, default))
+    on = [name for name, key in CONTROLNET_VARIANTS.items() if key and flag(key, False)]
+    if len(on) > 1:
+        raise ValueError(f"both {' and '.join(CONTROLNET_VARIANTS[n] for n in on)} are set; "
+                         f"they are two different Table 2 ablations")
+    return on[0] if on else "adapter"
+
 
 class TrajectoryControlNet(nn.Module):
     """``r = F_tr(z_t + E_tr(T), t, a)`` (Eq. (1)): a trainable copy of the base encoder
@@ -808,11 +828,17 @@ class ControlledDenoiser(nn.Module):
         if sketch_encoders:
             self.add_sketch_encoders()
 
+    @property
+    def variant(self):
+        """The Table 2 variant: ``"adapter"``, ``"single"`` or ``"double"``
+        (:func:`controlnet_variant`)."""
+        return controlnet_variant(self)
+
     def add_sketch_encoders(self):
         """Build untrained 2D encoders ``E^2D_tr`` and ``E^2D_k`` (Sec. 5); returns them."""
-        if self.single_controlnet or self.double_controlnet:
-            raise ValueError(f"the {'single' if self.single_controlnet else 'double'}-ControlNet "
-                             f"ablation has no 2D encoders; align the ControlNet + adapter model")
+        if self.variant != "adapter":
+            raise ValueError(f"the {self.variant}-ControlNet ablation has no 2D encoders; align "
+                             f"the ControlNet + adapter model")
         self.sketch_traj_encoder = sketch_trajectory_encoder(self.config)
         self.sketch_keypose_encoder = SketchKeyposeEncoder(self.config)
         return self.sketch_traj_encoder, self.sketch_keypose_encoder

@@ -101,6 +101,7 @@ from .model import (
     ControlledDenoiser,
     DenoiserConfig,
     MotionDenoiser,
+    controlnet_variant,
     count_parameters,
 )
 from .skeleton import JOINT_NAMES
@@ -570,10 +571,10 @@ def train(**kwargs):
             raise ValueError("stage 'align' runs in one process (its 2D encoders are small); "
                              "start it with python, not torchrun")
         base_ckpt = load_checkpoint(cfg.base_ckpt)
-        variant = ("single-ControlNet " if base_ckpt.get("single_controlnet") else
-                   "double-ControlNet " if base_ckpt.get("double_controlnet") else "")
-        if base_ckpt["stage"] not in ("control", "align") or variant:
-            raise ValueError(f"--base-ckpt {cfg.base_ckpt} is a {variant}'{base_ckpt['stage']}'"
+        variant = controlnet_variant(base_ckpt)
+        if base_ckpt["stage"] not in ("control", "align") or variant != "adapter":
+            kind = "" if variant == "adapter" else f"{variant}-ControlNet "
+            raise ValueError(f"--base-ckpt {cfg.base_ckpt} is a {kind}'{base_ckpt['stage']}'"
                              f" checkpoint; stage 'align' needs the ControlNet + adapter "
                              f"model of --stage control")
     if cfg.stage == "control":

@@ -204,10 +204,11 @@ def test_bad_steps_and_guidance(ckpts):
 
 
 def test_single_controlnet_flag_warns_for_a_plain_control_checkpoint(ckpts):
-    with pytest.warns(UserWarning, match="single_controlnet"):
+    with pytest.warns(UserWarning, match="is a ControlNet \\+ adapter checkpoint, not a "
+                                         "single-ControlNet one"):
         evaluate(ckpts["control"], single_controlnet=ckpts["control"], windows=1, steps=1,
                  progress=False)
-    with pytest.warns(UserWarning, match="double_controlnet=True"):
+    with pytest.warns(UserWarning, match="single-ControlNet checkpoint, not a double-ControlNet"):
         evaluate(ckpts["control"], double_controlnet=ckpts["single"], windows=1, steps=1,
                  progress=False)
     with pytest.warns(UserWarning, match="--control .* is a double-ControlNet"):

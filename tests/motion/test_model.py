@@ -337,3 +337,15 @@ def test_skip_connection_is_the_linear_guess_plus_a_scaled_correction():
     torch.testing.assert_close(y[..., 3:], (s * x)[..., 3:])
     with pytest.raises(ValueError, match="skip_pelvis=False needs"):
         DenoiserConfig(skip=True, skip_pelvis=False)          # "relative" features
+
+
+def test_controlnet_variant_names_models_and_checkpoints_alike():
+    from physlab.motion.model import controlnet_variant
+    base = MotionDenoiser(DenoiserConfig(**TINY))
+    assert ControlledDenoiser(base).variant == "adapter"
+    assert ControlledDenoiser(base, single_controlnet=True).variant == "single"
+    assert ControlledDenoiser(base, double_controlnet=True).variant == "double"
+    assert controlnet_variant({"stage": "control"}) == "adapter"        # older checkpoints
+    assert controlnet_variant({"single_controlnet": False, "double_controlnet": True}) == "double"
+    with pytest.raises(ValueError, match="single_controlnet and double_controlnet"):
+        controlnet_variant({"single_controlnet": True, "double_controlnet": True})
