@@ -347,7 +347,8 @@ def _free_port():
 
 
 @pytest.mark.timeout(180)
-def test_ddp_two_ranks_end_with_identical_parameters(real_data, tmp_path):
+@pytest.mark.parametrize("precision", ["fp32", "bf16"])        # bf16: make motion-model's default
+def test_ddp_two_ranks_end_with_identical_parameters(real_data, tmp_path, precision):
     """torchrun with 2 gloo processes, 2 smoke steps; both ranks' parameter digests must be
     equal. Skipped (not failed) if gloo cannot set up its sockets on this machine."""
     out = tmp_path / "ddp.pt"
@@ -356,7 +357,7 @@ def test_ddp_two_ranks_end_with_identical_parameters(real_data, tmp_path):
     cmd = [sys.executable, "-m", "torch.distributed.run", "--nnodes=1", "--nproc_per_node=2",
            "--master_addr=127.0.0.1", f"--master_port={_free_port()}",
            "-m", "physlab.motion.train", "--stage", "base", "--smoke", "--steps", "2",
-           "--no-progress", "--num-threads", "1", "--out", str(out)]
+           "--no-progress", "--num-threads", "1", "--precision", precision, "--out", str(out)]
     proc = subprocess.run(cmd, check=False, env=env, capture_output=True, text=True, timeout=170,
                           cwd=Path(__file__).resolve().parents[2])
     if proc.returncode != 0:
@@ -366,6 +367,7 @@ def test_ddp_two_ranks_end_with_identical_parameters(real_data, tmp_path):
         pytest.fail(f"torchrun failed:\n{log[-3000:]}")
     ckpt = load_checkpoint(out)
     assert ckpt["world_size"] == 2 and ckpt["step"] == 2
+    assert ckpt["train_config"]["precision"] == precision
     d = ckpt["param_digests"]
     assert len(d) == 2 and d[0] == d[1]
     assert len(ckpt["rng"]) == 2
