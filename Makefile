@@ -23,7 +23,7 @@ help:
 	@echo "make test       set up .venv and run the whole suite (unit tests, executed lessons, browser test)"
 	@echo "make reproduce  execute every lesson headless, write figures to reports/"
 	@echo "make bench      run the benchmarks in benchmarks/"
-	@echo "make motion-model  retrain the shipped motion checkpoints in data/motion/ (~135 min, 2 cores)"
+	@echo "make motion-model  retrain the shipped motion checkpoints in data/motion/ (~140 min, 2 cores)"
 
 # (Re)install whenever pyproject.toml changes.
 $(STAMP): pyproject.toml
@@ -77,35 +77,44 @@ bench: $(STAMP)
 	$(PY) benchmarks/run_all.py
 
 # Retrains data/motion/*.pt (part 4, Sketch2Anim) from the Bandai-Namco clips in ../shared/data
-# (every take but the held-out 002), on 2 cores, ~125-150 min in all depending on the host: the
-# text-motion evaluator (1000 steps, ~7 min on one thread), the text-conditioned base denoiser
-# (10000 steps, ~20-24 min), the trajectory ControlNet + keypose adapter on the frozen base
-# (6000 steps, ~33-44 min) and the single-ControlNet ablation (6000 steps, the same budget,
-# ~23 min), the 2D encoders aligned to the 3D ones (align stage, 5000 steps, ~40 min) and the
-# lift-and-control lifter (~10 min). Resumable: rerun after an interruption (Ctrl-C or `kill`
-# writes a checkpoint).
-# Full-precision checkpoints stay in $(MOTION_RUNS); data/ gets the fp16 inference copies.
-MOTION_RUNS  ?= runs/motion
-MOTION_TRAIN := $(PY) -m physlab.motion.train --num-threads 2 --text-cache $(MOTION_RUNS)/text_cache.npz
+# (every take but the held-out 002) on 2 cores: the text-motion evaluator (1000 steps, one
+# thread), the text-conditioned base denoiser (10000 steps), the trajectory ControlNet + keypose
+# adapter on the frozen base (6000 steps) and the single-ControlNet ablation (6000 steps, the
+# same budget), then the 2D encoders aligned to the 3D ones (align stage, 5000 steps) and the
+# lift-and-control lifter. Measured 2026-11-27 in bf16 on an idle 2-core host: evaluator 6.2
+# min, base 22.9 min, control 35.8 min, single ControlNet 23.4 min (these four 88 min), then
+# align about 40 min and the lifter about 10 min (float32 measurements), ~140 min in all.
+# Resumable: rerun after an interruption (Ctrl-C or `kill` writes a checkpoint).
+# Full-precision checkpoints stay in $(MOTION_RUNS); $(MOTION_EXPORT) gets the fp16 inference
+# copies (set MOTION_EXPORT=runs/x to retrain beside the shipped models and compare).
+# MOTION_PRECISION=bf16 runs the forward passes in bfloat16 autocast (weights, optimiser and
+# checkpoints stay float32): 1.24x (base) / 1.36x (control) the float32 throughput on this
+# host (benchmarks/bench_motion.py). The shipped files were trained in fp32; a bf16 retrain
+# scores within noise of them (README). Use MOTION_PRECISION=fp32 on a CPU without native
+# bfloat16 (no AVX512-BF16 / AMX), where bf16 is emulated and slower.
+MOTION_RUNS      ?= runs/motion
+MOTION_EXPORT    ?= data/motion
+MOTION_PRECISION ?= bf16
+MOTION_TRAIN := $(PY) -m physlab.motion.train --num-threads 2 --precision $(MOTION_PRECISION) \
+	--text-cache $(MOTION_RUNS)/text_cache.npz
 motion-evaluator: $(STAMP)
-	mkdir -p $(MOTION_RUNS) data/motion
+	mkdir -p $(MOTION_RUNS) $(MOTION_EXPORT)
 	$(PY) -m physlab.motion.evaluator train --num-threads 1 --steps 1000 \
 		--text-cache $(MOTION_RUNS)/text_cache.npz --out $(MOTION_RUNS)/evaluator.pt \
-		--export data/motion/text_motion_evaluator.pt
+		--export $(MOTION_EXPORT)/text_motion_evaluator.pt
 
 motion-model: $(STAMP) motion-evaluator
-	mkdir -p $(MOTION_RUNS) data/motion
 	$(MOTION_TRAIN) --stage base --steps 10000 --out $(MOTION_RUNS)/base.pt
 	$(MOTION_TRAIN) --stage control --steps 6000 --base-ckpt $(MOTION_RUNS)/base.pt \
-		--out $(MOTION_RUNS)/control.pt --export data/motion/sketch2anim_control.pt
+		--out $(MOTION_RUNS)/control.pt --export $(MOTION_EXPORT)/sketch2anim_control.pt
 	$(MOTION_TRAIN) --stage control --single-controlnet --steps 6000 \
 		--base-ckpt $(MOTION_RUNS)/base.pt --out $(MOTION_RUNS)/single_controlnet.pt \
-		--export data/motion/sketch2anim_single_controlnet.pt
+		--export $(MOTION_EXPORT)/sketch2anim_single_controlnet.pt
 	$(MOTION_TRAIN) --stage align --steps 5000 --single-joint 0.25 \
 		--base-ckpt $(MOTION_RUNS)/control.pt \
-		--out $(MOTION_RUNS)/align.pt --export data/motion/sketch2anim_control.pt
+		--out $(MOTION_RUNS)/align.pt --export $(MOTION_EXPORT)/sketch2anim_control.pt
 	$(PY) -m physlab.motion.baselines train-lifter --steps 3000 --num-threads 2 \
-		--out $(MOTION_RUNS)/lifter.pt --export data/motion/sketch_lifter.pt
+		--out $(MOTION_RUNS)/lifter.pt --export $(MOTION_EXPORT)/sketch_lifter.pt
 
 # Rebuilds data/motion/lesson_windows.npz (the real windows lesson 09 shows, so that it runs
 # without ../shared/data) from the Bandai-Namco clips.
