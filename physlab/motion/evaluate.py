@@ -312,10 +312,9 @@ def _load(path, flag, need_control=True):
     trained = gen.model.variant
     if flag in VARIANTS and VARIANTS[flag][1] != trained:
         row, wanted = VARIANTS[flag]
-        kind = "ControlNet + adapter" if trained == "adapter" else f"{trained}-ControlNet"
-        warnings.warn(f"{flag} {path} is a {kind} checkpoint, not a "
-                      f"{'ControlNet + adapter' if wanted == 'adapter' else wanted + '-ControlNet'}"
-                      f" one; its row is labelled '{row}' anyway")
+        from .model import controlnet_variant_label as label
+        warnings.warn(f"{flag} {path} is a {label(trained)} checkpoint, not a {label(wanted)} "
+                      f"one; its row is labelled '{row}' anyway")
     return gen
 
 

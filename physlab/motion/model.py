@@ -87,6 +87,7 @@ __all__ = [
     "CONTROLNET_VARIANTS",
     "check_condition",
     "controlnet_variant",
+    "controlnet_variant_label",
     "count_parameters",
     "features_to_joints_torch",
     "low_pass_matrix",
@@ -707,6 +708,12 @@ def controlnet_variant(source):
     return on[0] if on else "adapter"
 
 
+def controlnet_variant_label(variant):
+    """How messages name a :data:`CONTROLNET_VARIANTS` key: ``"ControlNet + adapter"``,
+    ``"single-ControlNet"`` or ``"double-ControlNet"``."""
+    return "ControlNet + adapter" if variant == "adapter" else f"{variant}-ControlNet"
+
+
 class TrajectoryControlNet(nn.Module):
     """``r = F_tr(z_t + E_tr(T), t, a)`` (Eq. (1)): a trainable copy of the base encoder
     plus one zero-initialised linear layer ``Z_i`` per block.
@@ -837,8 +844,8 @@ class ControlledDenoiser(nn.Module):
     def add_sketch_encoders(self):
         """Build untrained 2D encoders ``E^2D_tr`` and ``E^2D_k`` (Sec. 5); returns them."""
         if self.variant != "adapter":
-            raise ValueError(f"the {self.variant}-ControlNet ablation has no 2D encoders; align "
-                             f"the ControlNet + adapter model")
+            raise ValueError(f"the {controlnet_variant_label(self.variant)} ablation has no 2D "
+                             f"encoders; align the ControlNet + adapter model")
         self.sketch_traj_encoder = sketch_trajectory_encoder(self.config)
         self.sketch_keypose_encoder = SketchKeyposeEncoder(self.config)
         return self.sketch_traj_encoder, self.sketch_keypose_encoder

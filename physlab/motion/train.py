@@ -102,6 +102,7 @@ from .model import (
     DenoiserConfig,
     MotionDenoiser,
     controlnet_variant,
+    controlnet_variant_label,
     count_parameters,
 )
 from .skeleton import JOINT_NAMES
@@ -573,7 +574,7 @@ def train(**kwargs):
         base_ckpt = load_checkpoint(cfg.base_ckpt)
         variant = controlnet_variant(base_ckpt)
         if base_ckpt["stage"] not in ("control", "align") or variant != "adapter":
-            kind = "" if variant == "adapter" else f"{variant}-ControlNet "
+            kind = "" if variant == "adapter" else controlnet_variant_label(variant) + " "
             raise ValueError(f"--base-ckpt {cfg.base_ckpt} is a {kind}'{base_ckpt['stage']}'"
                              f" checkpoint; stage 'align' needs the ControlNet + adapter "
                              f"model of --stage control")
