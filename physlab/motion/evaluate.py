@@ -66,7 +66,7 @@ Usage::
 
     python -m physlab.motion.evaluate --control runs/control.pt \\
         [--single-controlnet runs/single.pt] [--double-controlnet runs/double.pt] [--windows 64] [--steps 50] [--guidance 2.5] [--control-guidance 1] \\
-        [--seed 0] [--out runs/eval] [--no-progress]
+        [--seed 0] [--out runs/eval] [--no-progress] [--pose-detail]
 
     from physlab.motion.evaluate import evaluate
     rows = evaluate("runs/control.pt", windows=64)     # {"real clips": {...}, ...}
@@ -110,6 +110,7 @@ from .metrics import (
     mpjpe,
     trajectory_error,
 )
+from .skeleton import joint_index
 
 __all__ = [
     "phase_change_score", "blending_windows", "evaluate_blending", "format_blending_table",
@@ -131,6 +132,10 @@ __all__ = [
     "held_out_windows",
     "main",
     "motion_statistics",
+    "POSE_GROUPS",
+    "facing",
+    "format_pose_breakdown",
+    "pose_breakdown",
     "text_adherence",
 ]
 
@@ -282,6 +287,121 @@ def clip_metrics(motions, conds, seconds=0.0):
     }
 
 
+#: Joint groups of :func:`pose_breakdown` (names of :data:`~physlab.motion.skeleton.JOINT_NAMES`).
+POSE_GROUPS = {
+    "pelvis": ("pelvis",),
+    "spine, neck, head": ("spine1", "spine2", "spine3", "neck", "head"),
+    "collars, shoulders": ("left_collar", "right_collar", "left_shoulder", "right_shoulder"),
+    "elbows, wrists": ("left_elbow", "right_elbow", "left_wrist", "right_wrist"),
+    "hips, knees": ("left_hip", "right_hip", "left_knee", "right_knee"),
+    "ankles, feet": ("left_ankle", "right_ankle", "left_foot", "right_foot"),
+}
+
+
+def facing(joints):
+    """Facing yaw (degrees, about +y) of poses ``(..., 22, 3)`` from their hip line: the body
+    faces ``(sin θ, 0, cos θ)``, so 0 is the canonical window's ``+z`` (frame 0) and a
+    positive angle turns towards ``+x`` (the body's left at θ = 0)."""
+    p = np.asarray(joints, dtype=float)
+    v = p[..., joint_index("left_hip"), :] - p[..., joint_index("right_hip"), :]
+    return np.degrees(np.arctan2(-v[..., 2], v[..., 0]))
+
+
+def _wrap_degrees(a):
+    return (np.asarray(a, dtype=float) + 180.0) % 360.0 - 180.0
+
+
+def pose_breakdown(motions, conds, real=None):
+    """Where a keypose pose error (``keypose_pose_3d`` of :func:`clip_metrics`) comes from.
+
+    The pose error is the mean over clips and joints of the key-frame distance after the
+    keypose is moved horizontally under the clip's pelvis. This splits it by clip (a few
+    bad clips or all a little), by key frame (first / last), by joint group
+    (:data:`POSE_GROUPS`), and into facing and posture: ``yaw_removed`` is the error left
+    after each clip's pose is turned about the vertical through its pelvis by the yaw that
+    fits the keypose best (least squares). For key frames after frame 0 the *turn* from
+    frame 0 to the key frame (:func:`facing`) is compared with the keypose's: ``turn_slope``
+    is the least-squares slope through 0 of the clips' turns on the real ones (1: the clip
+    turns as far as the keypose asks; 0: not at all), ``turn_error`` the mean absolute
+    difference (degrees).
+
+    Parameters
+    ----------
+    motions : (n, N, 22, 3) clips (m); conds : n :class:`~physlab.motion.dataset.Condition`.
+    real : None or the (n, N, 22, 3) windows the conditions were made from: the keypose's
+        turn is measured from the real frame 0 (None: from the canonical ``+z``, which a
+        window's frame 0 faces up to the hip line's ±10°).
+
+    Returns
+    -------
+    dict: ``pose`` (m, equal to ``keypose_pose_3d``), ``clip_median``, ``clip_p90``,
+    ``clip_max`` (per-clip means, m), ``first`` / ``last`` (mean over clips keyed at frame 0
+    / at a later frame; NaN if none), ``yaw_removed`` (m), ``groups`` {name: m},
+    ``turn_slope``, ``turn_error`` (degrees) and ``n_turn`` (clips keyed after frame 0).
+    """
+    x = np.asarray(motions, dtype=float)
+    if x.ndim != 4 or x.shape[2:] != (22, 3) or len(x) != len(conds) or not len(x):
+        raise ValueError(f"motions must be (n, N, 22, 3) with one condition per clip, got "
+                         f"shape {x.shape} and {len(conds)} conditions")
+    n = len(x)
+    kf = np.array([c.key_frame for c in conds])
+    p = x[np.arange(n), kf].copy()                                          # (n, 22, 3)
+    g = np.stack([np.asarray(c.keypose, dtype=float) for c in conds])
+    p[..., [0, 2]] -= p[:, :1, [0, 2]]
+    g = g.copy()
+    g[..., [0, 2]] -= g[:, :1, [0, 2]]
+    e = np.linalg.norm(p - g, axis=-1)                                      # (n, 22)
+    clip = e.mean(1)
+    a = (g[..., 0] * p[..., 0] + g[..., 2] * p[..., 2]).sum(1)             # best yaw: argmax
+    b = (g[..., 0] * p[..., 2] - g[..., 2] * p[..., 0]).sum(1)             # of cos·a + sin·b
+    th = np.arctan2(b, a)[:, None]
+    turned = p.copy()
+    turned[..., 0] = p[..., 0] * np.cos(th) + p[..., 2] * np.sin(th)
+    turned[..., 2] = -p[..., 0] * np.sin(th) + p[..., 2] * np.cos(th)
+    later = kf > 0
+    out = {"pose": float(e.mean()), "clip_median": float(np.median(clip)),
+           "clip_p90": float(np.quantile(clip, 0.9)), "clip_max": float(clip.max()),
+           "first": float(clip[~later].mean()) if (~later).any() else float("nan"),
+           "last": float(clip[later].mean()) if later.any() else float("nan"),
+           "yaw_removed": float(np.linalg.norm(turned - g, axis=-1).mean()),
+           "groups": {name: float(e[:, [joint_index(j) for j in joints]].mean())
+                      for name, joints in POSE_GROUPS.items()},
+           "turn_slope": float("nan"), "turn_error": float("nan"), "n_turn": int(later.sum())}
+    if later.any():
+        start = (facing(np.asarray(real, dtype=float)[:, 0]) if real is not None
+                 else np.zeros(n))
+        want = _wrap_degrees(facing(np.stack([c.keypose for c in conds])) - start)[later]
+        made = _wrap_degrees(facing(p) - facing(x[:, 0]))[later]
+        out["turn_error"] = float(np.abs(_wrap_degrees(made - want)).mean())
+        if np.any(want != 0):
+            out["turn_slope"] = float((want * made).sum() / (want ** 2).sum())
+    return out
+
+
+def format_pose_breakdown(rows):
+    """Markdown table of the rows of :func:`evaluate` that carry a ``pose_breakdown``."""
+    rows = {k: r["pose_breakdown"] for k, r in rows.items() if "pose_breakdown" in r}
+    if not rows:
+        return ""
+    groups = list(POSE_GROUPS)
+    head = (["method", "pose err. (m)", "clip median", "clip p90", "clip max", "key frame 0",
+             "later key frame", "best yaw removed"] + groups
+            + ["turn slope", "turn err. (°)"])
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for name, b in rows.items():
+        vals = ([b[k] for k in ("pose", "clip_median", "clip_p90", "clip_max", "first", "last",
+                                "yaw_removed")] + [b["groups"][k] for k in groups])
+        lines.append("| " + " | ".join([name] + [f"{v:.4f}" for v in vals]
+                                       + [f"{b['turn_slope']:.2f}", f"{b['turn_error']:.1f}"])
+                     + " |")
+    n_turn = next(iter(rows.values()))["n_turn"]
+    lines.append("")
+    lines.append(f"Key-frame pose error split by clip, key frame and joint group; the turn "
+                 f"columns compare the clip's turn from frame 0 to a later key frame with the "
+                 f"keypose's ({n_turn} clips; slope 1 = turns as far as asked).")
+    return "\n".join(lines)
+
+
 # ----------------------------------------------------------------------------- evaluate
 
 
@@ -364,7 +484,7 @@ def _text_motion_metrics(evaluator, data, seed):
 def evaluate(control, single_controlnet=None, windows=64, steps=50, guidance=2.5, seed=0,
              out=None, progress=True, data_root=None, body_constraints=True,
              control_guidance=1.0, guidance_variants=False, evaluator="default",
-             foot_lock=True, frequencies=None, double_controlnet=None):
+             foot_lock=True, frequencies=None, double_controlnet=None, pose_detail=False):
     """Evaluate a control checkpoint on held-out Bandai-Namco windows (module docstring).
 
     Keyword names match the CLI flags.
@@ -397,6 +517,8 @@ def evaluate(control, single_controlnet=None, windows=64, steps=50, guidance=2.5
     guidance_variants : bool, add the rows of :data:`GUIDANCE_VARIANTS` for the
         ``--control`` checkpoint (Table A3's analogue: per-step guidance through the network,
         first-order and L-BFGS; ~5-10 s per clip on one thread).
+    pose_detail : bool, add :func:`pose_breakdown` as ``"pose_breakdown"`` to the text-only
+        row and each networks-only row (:func:`format_pose_breakdown` prints them).
 
     Returns
     -------
@@ -439,6 +561,10 @@ def evaluate(control, single_controlnet=None, windows=64, steps=50, guidance=2.5
     x, s = _sample(gens["keypose + trajectory"], data, conds, False, label="text only",
                    guidance=float(guidance), **kw)
     rows["text only"] = metrics(x, s)
+    if not isinstance(pose_detail, (bool, np.bool_)):
+        raise TypeError(f"pose_detail must be True or False, got {pose_detail!r}")
+    if pose_detail:
+        rows["text only"]["pose_breakdown"] = pose_breakdown(x, conds, data["joints"])
     if not isinstance(guidance_variants, (bool, np.bool_)):
         raise TypeError(f"guidance_variants must be True or False, got {guidance_variants!r}")
     for name, gen in gens.items():
@@ -450,6 +576,8 @@ def evaluate(control, single_controlnet=None, windows=64, steps=50, guidance=2.5
             x, s = _sample(gen, data, conds, True, label=label, options=options,
                            guidance=float(control_guidance), **kw)
             rows[label] = metrics(x, s)
+            if pose_detail and not suffix:
+                rows[label]["pose_breakdown"] = pose_breakdown(x, conds, data["joints"])
 
     if out is not None:
         out = Path(out)
@@ -463,9 +591,12 @@ def evaluate(control, single_controlnet=None, windows=64, steps=50, guidance=2.5
                   "test_takes": list(TEST_TAKES), "body_constraints": bool(body_constraints),
                   "foot_lock": bool(foot_lock), "frequencies": frequencies,
                   "guidance_variants": bool(guidance_variants),
+                  "pose_detail": bool(pose_detail),
                   "evaluator": None if evaluator is None else str(evaluator),
                   "fid_reference_windows": len(data["reference_joints"])}
-        atomic_write_text(out / "table.md", format_table(rows) + "\n")
+        detail = format_pose_breakdown(rows)
+        atomic_write_text(out / "table.md", format_table(rows) + "\n"
+                          + ("\n" + detail + "\n" if detail else ""))
         atomic_write_text(out / "rows.json", json.dumps(
             {"rows": rows, "config": config, "attribution": BANDAI_NAMCO_ATTRIBUTION},
             indent=1))
@@ -1092,6 +1223,9 @@ def _parser():
     p.add_argument("--guidance-variants", action="store_true",
                    help="add per-step guidance rows through the network, first-order and "
                         "L-BFGS (Table A3; ~5-10 s per clip)")
+    p.add_argument("--pose-detail", action="store_true",
+                   help="also split the keypose pose error of the text-only and networks-only "
+                        "rows by clip, key frame, joint group and turn (pose_breakdown)")
     p.add_argument("--adherence", action="store_true",
                    help="also run the text-adherence check of the text-only generator")
     p.add_argument("--adherence-seeds", type=int, default=4,
@@ -1164,6 +1298,8 @@ def main(argv=None):
     if args.control is None:
         raise ValueError("--control is required (a control checkpoint, e.g. "
                          "data/motion/sketch2anim_control.pt) unless --blending is given")
+    if args.pose_detail and args.no_3d:
+        raise ValueError("--pose-detail splits the 3D table's pose error; drop --no-3d")
     rows = {} if args.no_3d else evaluate(args.control, single_controlnet=args.single_controlnet,
                     double_controlnet=args.double_controlnet,
                     windows=args.windows, steps=args.steps, guidance=args.guidance,
@@ -1172,7 +1308,7 @@ def main(argv=None):
                     data_root=args.data_root,
                     body_constraints=not args.no_body_constraints,
                     foot_lock=not args.no_foot_lock, frequencies=args.frequencies,
-                    guidance_variants=args.guidance_variants,
+                    guidance_variants=args.guidance_variants, pose_detail=args.pose_detail,
                     evaluator=None if args.no_evaluator else args.evaluator)
     if args.detail is not None:
         print(format_detail(detail_kept(args.control, content=args.detail,
@@ -1188,6 +1324,9 @@ def main(argv=None):
                                    data_root=args.data_root, frequencies=args.frequencies)
     if rows:
         print(format_table(rows))
+        if args.pose_detail:
+            print()
+            print(format_pose_breakdown(rows))
     if args.sketch:
         evaluator = None if args.no_evaluator else args.evaluator
         protocols = SKETCH_PROTOCOLS if args.protocol == "both" else (args.protocol,)

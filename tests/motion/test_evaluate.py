@@ -391,3 +391,77 @@ def test_blending_cli_uses_the_given_checkpoint_and_returns_the_rows(monkeypatch
     E.main(["--blending", "--control", str(DEFAULT_CHECKPOINT), "--no-progress",
             "--no-evaluator"])
     assert seen["generator"].path == DEFAULT_CHECKPOINT and seen["generator"].has_control
+
+
+def _yaw(points, degrees, about):
+    """``points`` (..., 3) turned by ``degrees`` about the vertical through ``about`` (3,)."""
+    th = np.radians(degrees)
+    d = np.asarray(points, dtype=float) - about
+    out = d.copy()
+    out[..., 0] = d[..., 0] * np.cos(th) + d[..., 2] * np.sin(th)
+    out[..., 2] = -d[..., 0] * np.sin(th) + d[..., 2] * np.cos(th)
+    return out + about
+
+
+def test_pose_breakdown_separates_facing_from_posture_and_measures_the_turn():
+    from physlab.motion.evaluate import POSE_GROUPS, facing, pose_breakdown
+    from physlab.motion.skeleton import JOINT_NAMES
+
+    assert sorted(j for g in POSE_GROUPS.values() for j in g) == sorted(JOINT_NAMES)
+    held = np.load(Path(__file__).resolve().parents[2] / "data" / "motion" /
+                   "lesson_windows.npz")["held_out"][:4].astype(float)
+    # facing: turning a pose by +30° about the vertical adds 30° (the +z -> +x sense)
+    turn = facing(_yaw(held[0, 5], 30.0, held[0, 5, 0])) - facing(held[0, 5])
+    assert (turn + 180) % 360 - 180 == pytest.approx(30.0)
+    conds = [condition_from_window(w, t_r=10, keypose_at=k)
+             for w, k in zip(held, ("first", "last", "first", "last"))]
+    exact = pose_breakdown(held, conds, held)
+    assert exact["pose"] == 0 and exact["yaw_removed"] < 1e-12
+    assert exact["turn_error"] < 1e-9 and exact["n_turn"] == 2
+    assert clip_metrics(held, conds)["keypose_pose_3d"] == exact["pose"]
+    # every key-frame pose turned by 20° about its pelvis: facing, not posture, is wrong
+    turned = held.copy()
+    for i, c in enumerate(conds):
+        turned[i, c.key_frame] = _yaw(held[i, c.key_frame], 20.0, held[i, c.key_frame, 0])
+    b = pose_breakdown(turned, conds, held)
+    assert b["pose"] > 0.02 and b["yaw_removed"] < 1e-9
+    assert b["pose"] == pytest.approx(clip_metrics(turned, conds)["keypose_pose_3d"])
+    assert b["turn_error"] == pytest.approx(20.0)
+    assert b["groups"]["pelvis"] < 1e-12 < b["groups"]["elbows, wrists"]
+    assert b["clip_median"] <= b["clip_p90"] <= b["clip_max"]
+    assert b["first"] > 0 and b["last"] > 0
+    # a clip that never turns while its keypose does: slope 0, as far as asked: slope 1
+    still = np.repeat(held[:, :1], held.shape[1], axis=1)
+    asked = held.copy()
+    for i in (1, 3):                                  # the last-frame keyposes: 80° and 120°
+        for t in range(held.shape[1]):
+            asked[i, t] = _yaw(held[i, 0], (60.0 + 20 * i) * t / (held.shape[1] - 1),
+                               held[i, 0, 0])
+    conds = [condition_from_window(w, t_r=10, keypose_at=k)
+             for w, k in zip(asked, ("first", "last", "first", "last"))]
+    assert pose_breakdown(asked, conds, asked)["turn_slope"] == pytest.approx(1.0)
+    assert abs(pose_breakdown(still, conds, asked)["turn_slope"]) < 1e-9
+    with pytest.raises(ValueError, match="one condition per clip"):
+        pose_breakdown(held[:3], conds)
+
+
+def test_evaluate_pose_detail_splits_text_only_and_networks_only_rows(ckpts, tmp_path, capsys):
+    from physlab.motion.evaluate import format_pose_breakdown
+
+    rows = evaluate(ckpts["control"], body_constraints=False, pose_detail=True,
+                    evaluator=None, **FAST)
+    with_detail = [k for k, r in rows.items() if "pose_breakdown" in r]
+    assert with_detail == ["text only", "keypose + trajectory"]
+    for k in with_detail:
+        assert rows[k]["pose_breakdown"]["pose"] == pytest.approx(rows[k]["keypose_pose_3d"])
+    table = format_pose_breakdown(rows)
+    assert table.startswith("| method | pose err. (m)") and "| keypose + trajectory |" in table
+    with pytest.raises(TypeError, match="pose_detail"):
+        evaluate(ckpts["control"], pose_detail=1, evaluator=None, **FAST)
+    out = tmp_path / "ev"
+    main(["--control", str(ckpts["control"]), "--windows", "2", "--steps", "1",
+          "--no-evaluator", "--pose-detail", "--out", str(out), "--no-progress"])
+    assert "| method | pose err. (m)" in capsys.readouterr().out
+    assert "turn slope" in (out / "table.md").read_text()
+    with pytest.raises(ValueError, match="--pose-detail"):
+        main(["--control", str(ckpts["control"]), "--no-3d", "--pose-detail"])
