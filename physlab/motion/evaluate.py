@@ -195,7 +195,7 @@ WINDOW_STRIDE = 10
 # ----------------------------------------------------------------------------- test data
 
 
-def held_out_windows(windows=64, data_root=None):
+def held_out_windows(windows=64, data_root=None, takes=TEST_TAKES):
     """``windows`` held-out 40-frame windows at evenly spaced indices.
 
     Parameters
@@ -203,6 +203,8 @@ def held_out_windows(windows=64, data_root=None):
     windows : int >= 1; more than available -> all of them (with a warning).
     data_root : None or the Bandai-Namco folder (:func:`~physlab.motion.dataset.
         bandai_namco_dir`).
+    takes : the takes to draw from (default :data:`~physlab.motion.dataset.TEST_TAKES`, the
+        held-out one; a training take such as ``("003",)`` shows what the model fits).
 
     Returns
     -------
@@ -212,8 +214,14 @@ def held_out_windows(windows=64, data_root=None):
     ``n_available`` int.
     """
     n = _check_windows(windows)
-    ids = [Path(r["file"]).stem for r in read_labels(data_root) if r["take"] in TEST_TAKES]
-    _, test = split_by_take(load_clips(data_root, clip_ids=ids))
+    takes = _check_takes(takes)
+    labels = read_labels(data_root)
+    ids = [Path(r["file"]).stem for r in labels if r["take"] in takes]
+    if not ids:
+        raise ValueError(f"no clips of take {', '.join(takes)} in the labels.csv of "
+                         f"{data_root or 'the Bandai-Namco data'}; takes there: "
+                         f"{', '.join(sorted({r['take'] for r in labels}))}")
+    _, test = split_by_take(load_clips(data_root, clip_ids=ids), test_takes=takes)
     win = make_windows(test, length=WINDOW_LENGTH, stride=WINDOW_STRIDE)
     M = len(win)
     if n > M:
@@ -405,6 +413,23 @@ def format_pose_breakdown(rows):
 # ----------------------------------------------------------------------------- evaluate
 
 
+def _check_takes(takes):
+    if isinstance(takes, str):
+        takes = (takes,)
+    takes = tuple(takes)
+    if not takes or not all(isinstance(t, str) and t for t in takes):
+        raise ValueError(f"takes must be a non-empty list of take names such as '002', got "
+                         f"{takes!r}")
+    return takes
+
+
+def _takes_note(takes):
+    """"held-out windows (take 002)" or, for takes the models were trained on, says so."""
+    if set(takes) <= set(TEST_TAKES):
+        return f"held-out windows (take {', '.join(takes)})"
+    return f"windows of take {', '.join(takes)} (not held out: the models trained on it)"
+
+
 def _check_windows(windows):
     if isinstance(windows, bool) or not isinstance(windows, (int, np.integer)) or windows < 1:
         raise ValueError(f"windows must be an integer >= 1 (number of held-out clips to "
@@ -484,7 +509,8 @@ def _text_motion_metrics(evaluator, data, seed):
 def evaluate(control, single_controlnet=None, windows=64, steps=50, guidance=2.5, seed=0,
              out=None, progress=True, data_root=None, body_constraints=True,
              control_guidance=1.0, guidance_variants=False, evaluator="default",
-             foot_lock=True, frequencies=None, double_controlnet=None, pose_detail=False):
+             foot_lock=True, frequencies=None, double_controlnet=None, pose_detail=False,
+             takes=TEST_TAKES):
     """Evaluate a control checkpoint on held-out Bandai-Namco windows (module docstring).
 
     Keyword names match the CLI flags.
@@ -519,6 +545,8 @@ def evaluate(control, single_controlnet=None, windows=64, steps=50, guidance=2.5
         first-order and L-BFGS; ~5-10 s per clip on one thread).
     pose_detail : bool, add :func:`pose_breakdown` as ``"pose_breakdown"`` to the text-only
         row and each networks-only row (:func:`format_pose_breakdown` prints them).
+    takes : the takes whose windows are evaluated (:func:`held_out_windows`; default the
+        held-out take).
 
     Returns
     -------
@@ -539,7 +567,8 @@ def evaluate(control, single_controlnet=None, windows=64, steps=50, guidance=2.5
         if path is not None:
             gens[VARIANTS[flag][0]] = _load(path, flag)
 
-    data = held_out_windows(n, data_root=data_root)
+    takes = _check_takes(takes)
+    data = held_out_windows(n, data_root=data_root, takes=takes)
     conds = eval_conditions(data["joints"], seed=seed)
     if not isinstance(body_constraints, (bool, np.bool_)):
         raise TypeError(f"body_constraints must be True or False, got {body_constraints!r}")
@@ -588,14 +617,14 @@ def evaluate(control, single_controlnet=None, windows=64, steps=50, guidance=2.5
                   "windows_available": data["n_available"], "steps": int(steps),
                   "guidance": float(guidance), "control_guidance": float(control_guidance),
                   "seed": int(seed), "min_t_r": MIN_T_R,
-                  "test_takes": list(TEST_TAKES), "body_constraints": bool(body_constraints),
+                  "test_takes": list(takes), "body_constraints": bool(body_constraints),
                   "foot_lock": bool(foot_lock), "frequencies": frequencies,
                   "guidance_variants": bool(guidance_variants),
                   "pose_detail": bool(pose_detail),
                   "evaluator": None if evaluator is None else str(evaluator),
                   "fid_reference_windows": len(data["reference_joints"])}
         detail = format_pose_breakdown(rows)
-        atomic_write_text(out / "table.md", format_table(rows) + "\n"
+        atomic_write_text(out / "table.md", format_table(rows, takes) + "\n"
                           + ("\n" + detail + "\n" if detail else ""))
         atomic_write_text(out / "rows.json", json.dumps(
             {"rows": rows, "config": config, "attribution": BANDAI_NAMCO_ATTRIBUTION},
@@ -603,9 +632,10 @@ def evaluate(control, single_controlnet=None, windows=64, steps=50, guidance=2.5
     return rows
 
 
-def format_table(rows):
+def format_table(rows, takes=TEST_TAKES):
     """Markdown table of :func:`evaluate`'s rows (errors in m, time in s; one column per key
-    of :data:`COLUMNS` that the rows have) with the data attribution line."""
+    of :data:`COLUMNS` that the rows have) with the data attribution line; ``takes`` as
+    evaluated (named under the table)."""
     names = {**COLUMNS, **EVALUATOR_COLUMNS}
     keys = [k for k in names if rows and all(k in r for r in rows.values())]
     head = ["method", *(names[k] for k in keys)]
@@ -616,7 +646,7 @@ def format_table(rows):
                  else f"{r[k]:.4f}" for k in keys]
         lines.append("| " + " | ".join([name, *cells]) + " |")
     n = next(iter(rows.values()))["n_clips"] if rows else 0
-    lines += ["", (f"{n} held-out windows (take {', '.join(TEST_TAKES)}), one Cross condition "
+    lines += ["", (f"{n} {_takes_note(_check_takes(takes))}, one Cross condition "
               f"each; AUJ relative to PJ_GT = {HUMANML3D_GT_PEAK_JERK:.4f} m/frame³; "
               f"edge step ratio: — when no clip has a partial trajectory."),
               *([f"Text–motion evaluator: FID against the other held-out windows, R-precision "
@@ -1223,6 +1253,10 @@ def _parser():
     p.add_argument("--guidance-variants", action="store_true",
                    help="add per-step guidance rows through the network, first-order and "
                         "L-BFGS (Table A3; ~5-10 s per clip)")
+    p.add_argument("--take", action="append", default=None, metavar="TAKE",
+                   help="evaluate the windows of this take instead of the held-out "
+                        f"{', '.join(TEST_TAKES)} (repeatable; e.g. --take 003, a training take, "
+                        "shows what the model fits); the 3D table only")
     p.add_argument("--pose-detail", action="store_true",
                    help="also split the keypose pose error of the text-only and networks-only "
                         "rows by clip, key frame, joint group and turn (pose_breakdown)")
@@ -1298,6 +1332,8 @@ def main(argv=None):
     if args.control is None:
         raise ValueError("--control is required (a control checkpoint, e.g. "
                          "data/motion/sketch2anim_control.pt) unless --blending is given")
+    if args.take and args.no_3d:
+        raise ValueError("--take chooses the 3D table's windows; drop --no-3d")
     if args.pose_detail and args.no_3d:
         raise ValueError("--pose-detail splits the 3D table's pose error; drop --no-3d")
     rows = {} if args.no_3d else evaluate(args.control, single_controlnet=args.single_controlnet,
@@ -1309,6 +1345,7 @@ def main(argv=None):
                     body_constraints=not args.no_body_constraints,
                     foot_lock=not args.no_foot_lock, frequencies=args.frequencies,
                     guidance_variants=args.guidance_variants, pose_detail=args.pose_detail,
+                    takes=tuple(args.take or TEST_TAKES),
                     evaluator=None if args.no_evaluator else args.evaluator)
     if args.detail is not None:
         print(format_detail(detail_kept(args.control, content=args.detail,
@@ -1323,7 +1360,7 @@ def main(argv=None):
                                    progress=not args.no_progress,
                                    data_root=args.data_root, frequencies=args.frequencies)
     if rows:
-        print(format_table(rows))
+        print(format_table(rows, tuple(args.take or TEST_TAKES)))
         if args.pose_detail:
             print()
             print(format_pose_breakdown(rows))

@@ -465,3 +465,23 @@ def test_evaluate_pose_detail_splits_text_only_and_networks_only_rows(ckpts, tmp
     assert "turn slope" in (out / "table.md").read_text()
     with pytest.raises(ValueError, match="--pose-detail"):
         main(["--control", str(ckpts["control"]), "--no-3d", "--pose-detail"])
+
+
+def test_evaluate_on_a_training_take_says_so(ckpts, capsys):
+    train_rows = evaluate(ckpts["control"], takes=("001",), body_constraints=False,
+                          evaluator=None, **FAST)
+    held_rows = evaluate(ckpts["control"], body_constraints=False, evaluator=None, **FAST)
+    assert train_rows["real clips"]["foot_skating"] != held_rows["real clips"]["foot_skating"]
+    assert "windows of take 001 (not held out" in format_table(train_rows, ("001",))
+    assert "held-out windows (take 002)" in format_table(held_rows)
+    w = held_out_windows(2, takes="001")
+    assert all(c.endswith("_001") for c in w["clip_id"])
+    with pytest.raises(ValueError, match="no clips of take 999 .*takes there: 001, 002"):
+        held_out_windows(2, takes=("999",))
+    with pytest.raises(ValueError, match="takes must be"):
+        held_out_windows(2, takes=())
+    main(["--control", str(ckpts["control"]), "--windows", "2", "--steps", "1", "--take", "001",
+          "--no-evaluator", "--no-progress"])
+    assert "windows of take 001" in capsys.readouterr().out
+    with pytest.raises(ValueError, match="--take"):
+        main(["--control", str(ckpts["control"]), "--no-3d", "--take", "001"])
