@@ -94,6 +94,7 @@ from .dataset import (
     random_condition,
     read_labels,
     split_by_take,
+    turn_windows,
 )
 from .diffusion import PREDICTION_TYPES, NoiseScheduler, SchedulerConfig
 from .features import FeatureStats, encode_motion
@@ -207,6 +208,8 @@ class TrainConfig:
     max_clips: int = 0              # use only the first k training clips (0 = all)
     window_stride: int = 10         # frames between window starts (40-frame windows)
     mirror: bool = False            # add every window's mirror image (dataset.mirror_windows)
+    turn_augment: float = 0.0       # > 0: add a copy of every window turned progressively by
+                                    # up to this many degrees (dataset.turn_windows); 0 = off
     snr_cap: float = 0.0            # > 0: weight each window's x0 loss by min(1/(1 − ᾱ_t), cap)
                                     # (recon_loss; with --skip); 0 = plain x0 MSE
     balance: float = 0.0            # draw a window with weight (windows of its action)^-balance:
@@ -242,10 +245,13 @@ class TrainConfig:
                      "cond_drop_prob", "drop_keypose", "drop_trajectory", "single_joint",
                      "lambda_match",
                      "lambda_recon", "lambda_contrast", "tau", "sketch_noise", "balance",
-                     "snr_cap"):
+                     "snr_cap", "turn_augment"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
                 raise ValueError(f"{name} must be a finite number, got {v!r}")
+        if not 0 <= self.turn_augment <= 180:
+            raise ValueError(f"turn_augment must be in [0, 180] degrees (0 = off; e.g. 90), got "
+                             f"{self.turn_augment}")
         if not 0 < self.lr <= 1:
             raise ValueError(f"lr must be in (0, 1] (AdamW; the default is 2e-4), got {self.lr}")
         if not 0 <= self.min_lr <= self.lr:
@@ -360,6 +366,8 @@ def prepare_data(cfg: TrainConfig, stats: FeatureStats | None = None, cache=None
                                         cfg.window_stride)
     if cfg.mirror:
         win = mirror_windows(win)
+    if cfg.turn_augment:
+        win = turn_windows(win, cfg.turn_augment, seed=cfg.seed)
     feats = np.stack([encode_motion(w, representation, fps=win.fps)
                       for w in win.joints])                       # (N, 39, 137) | (N, 40, 70)
     if stats is None:

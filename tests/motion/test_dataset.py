@@ -307,3 +307,39 @@ def test_split_windows_never_straddle(clips):
     wtr, wte = make_windows(train), make_windows(test)
     assert not set(wtr.clip_id) & set(wte.clip_id)
     assert set(wte.clip_id) == {"dataset-2_wave-right-hand_active_002"}
+
+
+def test_turn_windows_turn_the_body_and_its_path_progressively(clips):
+    from physlab.motion.evaluate import facing
+
+    w = make_windows(clips, length=40)
+    t = D.turn_windows(w, max_degrees=90.0, seed=3)
+    n = len(w)
+    assert len(t) == 2 * n and t.text == list(w.text) * 2
+    assert t.clip_id[n].endswith("/turned")
+    np.testing.assert_array_equal(t.joints[:n], w.joints)
+    c = t.joints[n:]
+    np.testing.assert_allclose(c[:, 0], w.joints[:, 0], atol=1e-12)        # frame 0 kept
+    np.testing.assert_allclose(c[..., 1], w.joints[..., 1])                # heights kept
+    np.testing.assert_allclose(np.linalg.norm(np.diff(c[:, :, 0, [0, 2]], axis=1), axis=-1),
+                               np.linalg.norm(np.diff(w.joints[:, :, 0, [0, 2]], axis=1),
+                                              axis=-1), atol=1e-12)        # step lengths kept
+    # each frame's pose is the original turned about its pelvis: same limb lengths, and the
+    # facing turns by a linear ramp to θ, the same θ per window (mod 360)
+    np.testing.assert_allclose(np.linalg.norm(c - c[:, :, :1], axis=-1),
+                               np.linalg.norm(w.joints - w.joints[:, :, :1], axis=-1),
+                               atol=1e-12)
+    extra = (facing(c) - facing(w.joints) + 180) % 360 - 180                # (n, 40) degrees
+    theta = extra[:, -1]
+    assert np.all(np.abs(theta) <= 90) and np.ptp(theta) > 30
+    np.testing.assert_allclose(extra, theta[:, None] * np.linspace(0, 1, 40)[None], atol=1e-8)
+    # the path turns with the body: a step's direction turns by the frame's angle
+    d0 = np.diff(w.joints[:, :, 0, [0, 2]], axis=1)
+    d1 = np.diff(c[:, :, 0, [0, 2]], axis=1)
+    ang = np.degrees(np.arctan2(d0[..., 0], d0[..., 1]) - np.arctan2(d1[..., 0], d1[..., 1]))
+    moving = np.linalg.norm(d0, axis=-1) > 1e-3
+    np.testing.assert_allclose(((ang + extra[:, 1:] + 180) % 360 - 180)[moving], 0, atol=1e-6)
+    with pytest.raises(ValueError, match="max_degrees"):
+        D.turn_windows(w, max_degrees=0)
+    with pytest.raises(TypeError, match="Windows"):
+        D.turn_windows(w.joints)

@@ -412,6 +412,21 @@ def test_mirror_augmentation_doubles_the_windows_and_mirrors_the_texts(real_data
     assert dataclasses.asdict(TrainConfig(mirror=True))["mirror"] is True  # saved in the ckpt
 
 
+def test_turn_augmentation_doubles_the_windows_and_keeps_the_texts(real_data):
+    kw = {"max_clips": 3, "text_encoder": "hash", "progress": False}
+    plain = prepare_data(TrainConfig(**kw))
+    both = prepare_data(TrainConfig(turn_augment=45.0, **kw))
+    n = len(plain["x0"])
+    assert both["x0"].shape == (2 * n, *plain["x0"].shape[1:])
+    np.testing.assert_array_equal(both["joints"][:n], plain["joints"])
+    assert not np.allclose(both["joints"][n:], plain["joints"])
+    assert [both["texts"][i] for i in both["text_index"][n:]] == \
+        [plain["texts"][i] for i in plain["text_index"]]
+    for bad in (-1.0, 181.0, float("nan"), True):
+        with pytest.raises(ValueError, match="turn_augment"):
+            TrainConfig(turn_augment=bad)
+
+
 def test_action_weights_balance_the_actions():
     acts = ["walk"] * 6 + ["kick"] * 1 + ["bow"] * 3
     uniform = action_weights(acts, 0.0)
