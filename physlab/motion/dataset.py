@@ -35,7 +35,7 @@ import numpy as np
 from physlab._io import atomic_write
 
 from .bvh import BANDAI_NAMCO_MAPPING, read_bvh, retarget_to_smpl22
-from .features import _check_joints, canonicalize
+from .features import _check_joints, _rotate_y, canonicalize
 from .skeleton import JOINT_NAMES, joint_index
 
 __all__ = [
@@ -474,19 +474,12 @@ def turn_windows(windows, max_degrees=90.0, seed=0):
     rng = np.random.default_rng(seed)
     th = (np.radians(rng.uniform(-max_degrees, max_degrees, n))[:, None]
           * np.linspace(0.0, 1.0, L)[None])                                  # (n, L)
-    c, s = np.cos(th), np.sin(th)
-    P = J[:, :, 0, [0, 2]]                                                   # (n, L, 2) pelvis
-    rel = J - np.concatenate([P[..., :1], np.zeros_like(P[..., :1]), P[..., 1:]],
-                             axis=-1)[:, :, None]
-    out = rel.copy()
-    out[..., 0] = rel[..., 0] * c[..., None] + rel[..., 2] * s[..., None]
-    out[..., 2] = -rel[..., 0] * s[..., None] + rel[..., 2] * c[..., None]
-    d = np.diff(P, axis=1)                                                   # (n, L-1, 2)
-    step = np.stack([d[..., 0] * c[:, 1:] + d[..., 1] * s[:, 1:],
-                     -d[..., 0] * s[:, 1:] + d[..., 1] * c[:, 1:]], axis=-1)
-    path = np.concatenate([P[:, :1], P[:, :1] + np.cumsum(step, axis=1)], axis=1)
-    out[..., 0] += path[..., None, 0]
-    out[..., 2] += path[..., None, 1]
+    pelvis = J[:, :, :1] * np.array([1.0, 0.0, 1.0])                        # (n, L, 1, 3) x, z
+    out = _rotate_y((J - pelvis).reshape(n * L, -1, 3), th.ravel()).reshape(J.shape)
+    steps = _rotate_y(np.diff(pelvis[:, :, 0], axis=1).reshape(-1, 3), th[:, 1:].ravel())
+    path = np.cumsum(np.concatenate([pelvis[:, :1, 0], steps.reshape(n, L - 1, 3)], axis=1),
+                     axis=1)                                                 # (n, L, 3)
+    out += path[:, :, None]
     return Windows(joints=np.concatenate([J, out]), text=list(windows.text) * 2,
                    content=list(windows.content) * 2, style=list(windows.style) * 2,
                    clip_id=list(windows.clip_id) + [f"{c}/turned" for c in windows.clip_id],

@@ -110,6 +110,7 @@ from .metrics import (
     mpjpe,
     trajectory_error,
 )
+from .features import _rotate_y
 from .skeleton import joint_index
 
 __all__ = [
@@ -362,10 +363,7 @@ def pose_breakdown(motions, conds, real=None):
     clip = e.mean(1)
     a = (g[..., 0] * p[..., 0] + g[..., 2] * p[..., 2]).sum(1)             # best yaw: argmax
     b = (g[..., 0] * p[..., 2] - g[..., 2] * p[..., 0]).sum(1)             # of cos·a + sin·b
-    th = np.arctan2(b, a)[:, None]
-    turned = p.copy()
-    turned[..., 0] = p[..., 0] * np.cos(th) + p[..., 2] * np.sin(th)
-    turned[..., 2] = -p[..., 0] * np.sin(th) + p[..., 2] * np.cos(th)
+    turned = _rotate_y(p, np.arctan2(b, a))
     later = kf > 0
     out = {"pose": float(e.mean()), "clip_median": float(np.median(clip)),
            "clip_p90": float(np.quantile(clip, 0.9)), "clip_max": float(clip.max()),
