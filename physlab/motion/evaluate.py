@@ -110,7 +110,7 @@ from .metrics import (
     mpjpe,
     trajectory_error,
 )
-from .features import _rotate_y
+from .features import _rotate_y, root_heading
 from .skeleton import joint_index
 
 __all__ = [
@@ -308,12 +308,15 @@ POSE_GROUPS = {
 
 
 def facing(joints):
-    """Facing yaw (degrees, about +y) of poses ``(..., 22, 3)`` from their hip line: the body
-    faces ``(sin θ, 0, cos θ)``, so 0 is the canonical window's ``+z`` (frame 0) and a
-    positive angle turns towards ``+x`` (the body's left at θ = 0)."""
+    """Facing yaw (degrees, about +y) of poses ``(..., 22, 3)``: the heading of
+    :func:`~physlab.motion.features.root_heading` (hips and shoulders, the definition the
+    windows are canonicalised with), for any leading shape. The body faces
+    ``(sin θ, 0, cos θ)``, so 0 is the canonical window's ``+z`` (frame 0) and a positive
+    angle turns towards ``+x`` (the body's left at θ = 0)."""
     p = np.asarray(joints, dtype=float)
-    v = p[..., joint_index("left_hip"), :] - p[..., joint_index("right_hip"), :]
-    return np.degrees(np.arctan2(-v[..., 2], v[..., 0]))
+    if p.ndim < 2 or p.shape[-2:] != (22, 3):
+        raise ValueError(f"joints must have shape (..., 22, 3), got {p.shape}")
+    return np.degrees(root_heading(p.reshape(-1, 22, 3))).reshape(p.shape[:-2])
 
 
 def _wrap_degrees(a):
@@ -923,7 +926,8 @@ def evaluate_sketch(control, windows=64, steps=50, seed=0, noise=0.0, progress=T
     ``--direct-2d`` control checkpoint: networks only and + guidance); then ``control``:
     with its 2D encoders (stage ``align``) networks only and + guidance, and (``guidance_only``
     or no encoders) the 3D generator driven by the 2D guidance alone; and the same condition
-    in 3D through the networks + guidance for reference. ``guidance_variants`` adds Table A3's
+    in 3D through the networks, without guidance (what the aligned 2D encoders can at best
+    reach: they stand in for the 3D encoders) and with it, for reference. ``guidance_variants`` adds Table A3's
     rows for the 2D encoders: :data:`GUIDANCE_VARIANTS` (per-step guidance through the
     network, first-order and L-BFGS; ~5 s per clip).
 
@@ -986,9 +990,10 @@ def evaluate_sketch(control, windows=64, steps=50, seed=0, noise=0.0, progress=T
                        label="2D guidance only", options=GUIDED,
                        guidance=CONTROL_TEXT_GUIDANCE, **kw)
         rows["3D generator, 2D guidance only"] = metrics(x, s)
-    x, s = _sample(gen, data, conds, True, label="3D conditions", options=GUIDED,
-                   guidance=CONTROL_TEXT_GUIDANCE, **kw)
-    rows["3D conditions, networks + guidance"] = metrics(x, s)
+    for suffix, options in ((" only", UNGUIDED), (" + guidance", GUIDED)):
+        x, s = _sample(gen, data, conds, True, label="3D conditions" + suffix, options=options,
+                       guidance=CONTROL_TEXT_GUIDANCE, **kw)
+        rows["3D conditions, networks" + suffix] = metrics(x, s)
     if out is not None:
         atomic_write_text(Path(out) / f"sketch_{protocol}.md",
                           format_sketch_table(rows, noise, protocol) + "\n")

@@ -339,6 +339,20 @@ def test_turn_windows_turn_the_body_and_its_path_progressively(clips):
     ang = np.degrees(np.arctan2(d0[..., 0], d0[..., 1]) - np.arctan2(d1[..., 0], d1[..., 1]))
     moving = np.linalg.norm(d0, axis=-1) > 1e-3
     np.testing.assert_allclose(((ang + extra[:, 1:] + 180) % 360 - 180)[moving], 0, atol=1e-6)
+    # a toe swings round the pelvis by at most the frame's turn times its distance from the
+    # pelvis, on top of its own turned step: a few mm per frame, so the copies hardly skate
+    # more than the originals (README, "Where the pose error sits")
+    from physlab.motion.metrics import foot_skating_ratio
+
+    dth = np.radians(np.abs(theta)) / 39                                    # (n,) rad / frame
+    toe = lambda x: x[:, :, [10, 11]][..., [0, 2]]                          # noqa: E731
+    own = np.linalg.norm(np.diff(toe(w.joints), axis=1), axis=-1)
+    got = np.linalg.norm(np.diff(toe(c), axis=1), axis=-1)
+    reach = np.linalg.norm(toe(w.joints) - w.joints[:, :, None, 0][..., [0, 2]], axis=-1)
+    assert np.all(got <= own + dth[:, None, None] * reach[:, :-1] + 1e-9)
+    assert np.all(got >= own - dth[:, None, None] * reach[:, :-1] - 1e-9)
+    sk = [foot_skating_ratio(x, fps=w.fps).mean() for x in (w.joints, c)]
+    assert abs(sk[1] - sk[0]) < 0.01, sk
     with pytest.raises(ValueError, match="max_degrees"):
         D.turn_windows(w, max_degrees=0)
     with pytest.raises(TypeError, match="Windows"):

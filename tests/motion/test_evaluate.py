@@ -275,7 +275,7 @@ def test_sketch_evaluation_rows_and_cli(ckpts, tmp_path, capsys):
 
     rows = evaluate_sketch(ckpts["control"], windows=3, steps=2, progress=False)
     assert tuple(rows) == ("real clips", "text only", "3D generator, 2D guidance only",
-                           "3D conditions, networks + guidance")
+                           "3D conditions, networks only", "3D conditions, networks + guidance")
     for r in rows.values():
         assert set(SKETCH_COLUMNS) <= set(r) and all(math.isfinite(r[k]) for k in SKETCH_COLUMNS)
     assert rows["real clips"]["trajectory_error_2d"] == 0 == rows["real clips"]["keypose_mpjpe_2d"]
@@ -301,7 +301,7 @@ def test_sketch_evaluation_rows_and_cli(ckpts, tmp_path, capsys):
                            "lift-and-control + guidance", "direct 2D", "direct 2D + guidance",
                            "physlab (2D encoders)", "physlab (2D encoders) + guidance",
                            "3D generator, 2D guidance only",
-                           "3D conditions, networks + guidance")
+                           "3D conditions, networks only", "3D conditions, networks + guidance")
     assert all(math.isfinite(r["trajectory_error_2d"]) for r in rows.values())
     held = np.stack([np.load(Path(__file__).resolve().parents[2] / "data" / "motion" /
                              "lesson_windows.npz")["held_out"][0]] * 7)
@@ -401,6 +401,21 @@ def _yaw(points, degrees, about):
     out[..., 0] = d[..., 0] * np.cos(th) + d[..., 2] * np.sin(th)
     out[..., 2] = -d[..., 0] * np.sin(th) + d[..., 2] * np.cos(th)
     return out + about
+
+
+def test_facing_is_the_canonicalisation_heading_for_any_leading_shape():
+    from physlab.motion.evaluate import facing
+    from physlab.motion.features import canonicalize, root_heading
+
+    held = np.load(Path(__file__).resolve().parents[2] / "data" / "motion" /
+                   "lesson_windows.npz")["held_out"][:3].astype(float)
+    f = facing(held)
+    assert f.shape == (3, 40)
+    assert np.allclose(f[1], np.degrees(root_heading(held[1])))
+    # a canonicalised window faces +z at frame 0
+    assert facing(canonicalize(held[2])[0]) == pytest.approx(0.0, abs=1e-9)
+    with pytest.raises(ValueError, match=r"\(\.\.\., 22, 3\)"):
+        facing(held[0, :, :21])
 
 
 def test_pose_breakdown_separates_facing_from_posture_and_measures_the_turn():
