@@ -23,7 +23,7 @@ help:
 	@echo "make test       set up .venv and run the whole suite (unit tests, executed lessons, browser test)"
 	@echo "make reproduce  execute every lesson headless, write figures to reports/"
 	@echo "make bench      run the benchmarks in benchmarks/"
-	@echo "make motion-model  retrain the shipped motion checkpoints in data/motion/ (~170 min, 2 cores)"
+	@echo "make motion-model  retrain the shipped motion checkpoints in data/motion/ (~205 min, 2 cores)"
 
 # (Re)install whenever pyproject.toml changes.
 $(STAMP): pyproject.toml
@@ -79,13 +79,14 @@ bench: $(STAMP)
 # Retrains data/motion/*.pt (part 4, Sketch2Anim) from the Bandai-Namco clips in ../shared/data
 # (every take but the held-out 002) on 2 cores: the text-motion evaluator (1000 steps, one
 # thread), the text-conditioned base denoiser (10000 steps), the trajectory ControlNet + keypose
-# adapter on the frozen base (6000 steps) and the single-ControlNet ablation (6000 steps, the
-# same budget), then the 2D encoders aligned to the 3D ones (align stage, 10000 steps) and the
-# lift-and-control lifter. Measured 2026-11-27 in bf16 on an idle 2-core host: evaluator 6.2
-# min, base 22.9 min, control 35.8 min, single ControlNet 23.4 min (these four 88 min), then
-# align (10000 steps) about 70 min at that run's 153 windows/s (35 min later the same day,
-# when the host ran about twice as fast: base 10.5, control 19 min) and the lifter about 10
-# min, ~170 min in all.
+# adapter on the frozen base (12000 steps; 6000 gave 0.101 / 0.038 m instead of 0.081 / 0.033 m
+# networks-only trajectory / pose error, README) and the single-ControlNet ablation (6000 steps,
+# half the adapter's budget: Table 2 compares the two at 6000), then the 2D encoders aligned to
+# the 3D ones (align stage, 10000 steps) and the lift-and-control lifter. Measured 2026-11-27 in
+# bf16 on an idle 2-core host: evaluator 6.2 min, base 22.9 min, control (6000 steps) 35.8 min,
+# single ControlNet 23.4 min, then align (10000 steps) about 70 min at that run's 153 windows/s,
+# and the lifter about 10 min: ~205 min in all with the 12000-step control. On a day the host ran
+# about twice as fast: base 10.5, control 46 min (12000 steps), align 35 min.
 # Resumable: rerun after an interruption (Ctrl-C or `kill` writes a checkpoint).
 # Full-precision checkpoints stay in $(MOTION_RUNS); $(MOTION_EXPORT) gets the fp16 inference
 # copies (set MOTION_EXPORT=runs/x to retrain beside the shipped models and compare).
@@ -107,7 +108,7 @@ motion-evaluator: $(STAMP)
 
 motion-model: $(STAMP) motion-evaluator
 	$(MOTION_TRAIN) --stage base --steps 10000 --out $(MOTION_RUNS)/base.pt
-	$(MOTION_TRAIN) --stage control --steps 6000 --base-ckpt $(MOTION_RUNS)/base.pt \
+	$(MOTION_TRAIN) --stage control --steps 12000 --base-ckpt $(MOTION_RUNS)/base.pt \
 		--out $(MOTION_RUNS)/control.pt --export $(MOTION_EXPORT)/sketch2anim_control.pt
 	$(MOTION_TRAIN) --stage control --single-controlnet --steps 6000 \
 		--base-ckpt $(MOTION_RUNS)/base.pt --out $(MOTION_RUNS)/single_controlnet.pt \
