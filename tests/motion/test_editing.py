@@ -72,7 +72,12 @@ def test_impact_of_conditions_sequence(gen):
                                    "'a person runs'"]
     first = seq[0][1]
     key = seq[1][2]["keypose_3d"]
-    assert np.linalg.norm(seq[1][1][0] - key, axis=-1).mean() < 0.05    # starts in the keypose
+    # starts in the keypose: its pose (a keypose carries no placement, Sketch2Anim Sec. 3;
+    # measured 1e-4 m, the text-only first frame 0.086 m) and near its place (the shipped
+    # networks put the pelvis 2.7 cm / 4.9 cm off for the 6,000- / 12,000-step control stage)
+    start = seq[1][1][0]
+    assert np.linalg.norm((start - start[:1]) - (key - key[:1]), axis=-1).mean() < 0.01
+    assert np.linalg.norm((start[0] - key[0])[[0, 2]]) < 0.1
     rev = seq[2][2]["trajectories_3d"]["pelvis"]
     assert rev[-1, 2] < -1.0 < 1.0 < first[-1, 0, 2]                     # forward vs reversed
     for _, j, _ in seq[2:]:
