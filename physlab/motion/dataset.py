@@ -449,11 +449,12 @@ def turn_windows(windows, max_degrees=90.0, seed=0):
     frame ``t`` of ``L`` is turned by ``θ_i t / (L − 1)`` about the vertical through its pelvis
     (the facing of :func:`~physlab.motion.evaluate.facing` grows by that angle), and the pelvis
     path is re-integrated from its steps turned by the same angle, so the copy walks where it
-    faces; frame 0, heights and step lengths are kept, texts too. Measured on held-out windows
-    (README, "Where the pose error sits"): the text of a Bandai-Namco window implies its turn,
-    so networks trained without this follow a last-frame keypose's facing only a third of the
-    way; with it (90°) two thirds of the way, though turning a pose about its pelvis slides a
-    planted foot, which the networks then learn too (more skating).
+    faces; frame 0, heights and step lengths are kept, texts too. A toe swings round the pelvis
+    by at most the frame's turn times its reach (a few mm per frame), so the copies skate about
+    as little as the originals. Measured on held-out windows (README, "Where the pose error
+    sits"): the text of a Bandai-Namco window implies its turn, so networks trained without
+    this follow a last-frame keypose's facing only about a third of the way; with it (90°)
+    more than half of the way, though their clips then skate and jerk more.
 
     Parameters
     ----------

@@ -1339,6 +1339,7 @@ def main(argv=None):
         raise ValueError("--take chooses the 3D table's windows; drop --no-3d")
     if args.pose_detail and args.no_3d:
         raise ValueError("--pose-detail splits the 3D table's pose error; drop --no-3d")
+    takes = tuple(args.take or TEST_TAKES)
     rows = {} if args.no_3d else evaluate(args.control, single_controlnet=args.single_controlnet,
                     double_controlnet=args.double_controlnet,
                     windows=args.windows, steps=args.steps, guidance=args.guidance,
@@ -1348,7 +1349,7 @@ def main(argv=None):
                     body_constraints=not args.no_body_constraints,
                     foot_lock=not args.no_foot_lock, frequencies=args.frequencies,
                     guidance_variants=args.guidance_variants, pose_detail=args.pose_detail,
-                    takes=tuple(args.take or TEST_TAKES),
+                    takes=takes,
                     evaluator=None if args.no_evaluator else args.evaluator)
     if args.detail is not None:
         print(format_detail(detail_kept(args.control, content=args.detail,
@@ -1363,7 +1364,7 @@ def main(argv=None):
                                    progress=not args.no_progress,
                                    data_root=args.data_root, frequencies=args.frequencies)
     if rows:
-        print(format_table(rows, tuple(args.take or TEST_TAKES)))
+        print(format_table(rows, takes))
         if args.pose_detail:
             print()
             print(format_pose_breakdown(rows))
