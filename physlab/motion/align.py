@@ -40,9 +40,11 @@ import numpy as np
 import torch
 import torch.nn.functional as F
 
-from .camera import JOINT_NOISE, PROPORTION_RANGE, random_camera, perturb_proportions
+from .camera import (JOINT_NOISE, PROPORTION_RANGE, Camera, random_camera,
+                     perturb_proportions)
 
-__all__ = ["sketch_batch", "alignment_losses", "ALIGN_TERMS", "DEFAULT_TAU"]
+__all__ = ["sketch_batch", "camera_projections", "alignment_losses", "ALIGN_TERMS",
+           "DEFAULT_TAU"]
 
 #: Temperature τ₁ of Eq. (12) (CLIP's initial value is 0.07; the paper gives none).
 DEFAULT_TAU = 0.1
@@ -99,6 +101,18 @@ def sketch_batch(cond, rng, noise=JOINT_NOISE, proportions=PROPORTION_RANGE, cam
             "traj_mask_2d": cond["traj_mask"].clone(),
             "keypose_2d": torch.tensor(k2, dtype=torch.float32),
             "camera": torch.tensor(cam, dtype=torch.float32)}
+
+
+def camera_projections(camera):
+    """``(B, 2, 3)`` float32 projection matrices ``s · R[:2]`` (:meth:`~physlab.motion.camera.
+    Camera.project`) of a :func:`sketch_batch` ``camera`` tensor ``(B, 4)`` (scale, pitch, yaw,
+    roll in degrees)."""
+    cam = torch.as_tensor(camera).double()
+    if cam.ndim != 2 or cam.shape[1] != 4:
+        raise ValueError(f"camera must have shape (B, 4) [scale, pitch, yaw, roll], got "
+                         f"{tuple(cam.shape)}")
+    mats = [c[0] * Camera(*c).rotation[:2] for c in cam.tolist()]
+    return torch.tensor(np.stack(mats), dtype=torch.float32)
 
 
 def _info_nce(s3, s2, tau):

@@ -51,7 +51,9 @@ Columns (:mod:`physlab.motion.metrics`):
   frames (m); ``feet < −2 cm`` the mean fraction of frames with a foot joint more than 2 cm
   below the floor; ``edge step ratio`` the largest over clips with a partial trajectory of
   the joint step where the trajectory starts or ends divided by the clip's median step
-  (:mod:`~physlab.motion.metrics`);
+  (issue 12's bound), ``edge jump`` the same step over the joint's own neighbouring steps
+  (about 1 where the motion is merely fast there, e.g. a waving wrist; large for a jump;
+  :func:`~physlab.motion.metrics.boundary_jump_ratio`);
 * seconds per clip: wall time of one :class:`~physlab.motion.sampling.Generator` call
   (``steps`` DDIM steps, CFG as a batch of 2); 0 for the real clips.
 
@@ -103,6 +105,7 @@ from .dataset import (
 from .metrics import (
     HUMANML3D_GT_PEAK_JERK,
     bone_length_variation,
+    boundary_jump_ratio,
     boundary_step_ratio,
     floor_penetration,
     foot_skating_ratio,
@@ -175,6 +178,7 @@ COLUMNS = {
     "bone_variation": "bone std (m) ↓",
     "floor_penetration": "feet < −2 cm ↓",
     "boundary_step_ratio": "edge step ratio ↓",
+    "boundary_jump_ratio": "edge jump ↓",
     "seconds_per_clip": "s / clip",
 }
 #: Columns of the shipped text–motion evaluator (:mod:`~physlab.motion.evaluator`), only
@@ -281,6 +285,8 @@ def clip_metrics(motions, conds, seconds=0.0):
     auj, pj = jerk(x, reference=HUMANML3D_GT_PEAK_JERK)
     ratios = [r for r in (boundary_step_ratio(m, c.mask) for m, c in zip(x, conds))
               if np.isfinite(r)]                                   # clips with a partial stroke
+    jumps = [r for r in (boundary_jump_ratio(m, c.mask) for m, c in zip(x, conds))
+             if np.isfinite(r)]
     return {
         "foot_skating": float(np.mean(foot_skating_ratio(x))),
         "keypose_mpjpe_3d": mpjpe(key, K),                 # equal joints per clip: mean of means
@@ -292,6 +298,7 @@ def clip_metrics(motions, conds, seconds=0.0):
         "bone_variation": float(np.max(bone_length_variation(x))),
         "floor_penetration": float(np.mean(floor_penetration(x))),
         "boundary_step_ratio": max(ratios) if ratios else float("nan"),
+        "boundary_jump_ratio": max(jumps) if jumps else float("nan"),
         "seconds_per_clip": float(seconds), "n_clips": len(x),
     }
 
@@ -649,7 +656,7 @@ def format_table(rows, takes=TEST_TAKES):
     n = next(iter(rows.values()))["n_clips"] if rows else 0
     lines += ["", (f"{n} {_takes_note(_check_takes(takes))}, one Cross condition "
               f"each; AUJ relative to PJ_GT = {HUMANML3D_GT_PEAK_JERK:.4f} m/frame³; "
-              f"edge step ratio: — when no clip has a partial trajectory."),
+              f"edge step ratio / jump: — when no clip has a partial trajectory."),
               *([f"Text–motion evaluator: FID against the other held-out windows, R-precision "
                  f"in batches of 32 with duplicate texts merged (chance top-3 = "
                  f"{next(iter(rows.values()))['r_precision_chance_top3']:.3f})."]

@@ -10,7 +10,7 @@ import torch
 from .dataset import TRAJECTORY_JOINTS
 from .model import features_to_joints_torch
 
-__all__ = ["control_losses", "sketch_losses"]
+__all__ = ["control_losses", "projected_trajectory_loss", "sketch_losses"]
 
 
 def control_losses(x0_hat, joints, cond, mean, std, representation="relative"):
@@ -47,6 +47,32 @@ def control_losses(x0_hat, joints, cond, mean, std, representation="relative"):
         km = km.to(e_key.dtype)
         l_key = (km * e_key).sum() / km.sum().clamp(min=1)
     return l_tr, l_key
+
+
+def projected_trajectory_loss(x0_hat, joints, traj_mask, projection, mean, std,
+                              representation="relative"):
+    """The trajectory error of predicted clean features as drawn: the masked mean over
+    (frame, trajectory joint) of the squared 2D distance between ``P(R(x̂₀), v_b)`` and
+    ``P(x, v_b)``, the ground truth seen through each sample's camera (Eq. (16)'s ``G`` with a
+    noise-free drawing; depth does not count).
+
+    Parameters
+    ----------
+    x0_hat : (B, T, D) normalised x̂₀; joints : (B, T+1, 22, 3) ground truth (m);
+    traj_mask : (B, T, 6) bool; projection : (B, 2, 3) ``s · R[:2]`` per sample
+        (:func:`~physlab.motion.align.camera_projections`); mean, std : (D,) tensors.
+
+    Returns
+    -------
+    scalar tensor in normalised image units².
+    """
+    pred = features_to_joints_torch(x0_hat * std + mean, representation=representation)
+    tj = list(TRAJECTORY_JOINTS)
+    p = projection.to(pred.dtype)[:, None, None]                            # (B, 1, 1, 2, 3)
+    diff = pred[:, :, tj] - joints[:, :pred.shape[1], tj].to(pred.dtype)     # (B, T, 6, 3)
+    d2 = ((p @ diff[..., None])[..., 0] ** 2).sum(-1)                        # (B, T, 6)
+    m = traj_mask.to(pred.dtype)
+    return ((m * d2).sum((1, 2)) / m.sum((1, 2)).clamp(min=1)).mean()
 
 
 def sketch_losses(joints, sketch):

@@ -25,7 +25,8 @@ from .skeleton import FOOT_JOINTS, bone_lengths, joint_index
 __all__ = [
     "SKATING_FEET", "SKATING_HEIGHT", "SKATING_SPEED", "SKATING_WINDOW",
     "HUMANML3D_GT_PEAK_JERK", "foot_skating_ratio", "mpjpe", "trajectory_error",
-    "jerk_curve", "jerk",
+    "jerk_curve", "jerk", "bone_length_variation", "floor_penetration", "boundary_step_ratio",
+    "boundary_jump_ratio",
 ]
 
 #: Joints tested for skating: left and right foot (toes), SMPL 10 and 11, as in GMD.
@@ -308,3 +309,37 @@ def boundary_step_ratio(joints, mask):
     if edges.size == 0:
         return float("nan")
     return float(step[edges].max() / max(np.median(step), 1e-9))
+
+
+def boundary_jump_ratio(joints, mask):
+    """Whether a clip *jumps* where a partial trajectory condition starts or ends, as opposed
+    to merely moving fast there: at each boundary step ``k`` (frame ``k -> k+1``), every
+    joint's step over the larger of its own neighbouring steps (``k-1``, ``k+1``) and the
+    clip's median step ``s̃`` (as in :func:`boundary_step_ratio`), ``max_{k, j} ‖Δx_{k,j}‖ /
+    max(‖Δx_{k-1,j}‖, ‖Δx_{k+1,j}‖, s̃)``. Motion that speeds up or slows down smoothly
+    scores about 1 however fast it is (a waving wrist); a one-frame jump of size ``d`` scores
+    about ``d`` over the joint's usual step. :func:`boundary_step_ratio` (issue 12's bound)
+    flags both.
+
+    Parameters
+    ----------
+    joints : (T, 22, 3) float array (m), T >= 3.
+    mask : (T, R) bool trajectory mask.
+
+    Returns
+    -------
+    float, or NaN when the mask has no boundary inside the clip.
+    """
+    x, _ = _as_batch(joints, min_frames=3)
+    m = np.asarray(mask, dtype=bool).any(axis=-1)
+    step = np.linalg.norm(np.diff(x[0], axis=0), axis=-1)                  # (T-1, J)
+    edges = np.flatnonzero(m[1:] != m[:-1])
+    if edges.size == 0:
+        return float("nan")
+    floor = max(float(np.median(step.max(axis=-1))), 1e-9)
+    worst = 0.0
+    for k in edges:
+        near = [step[i] for i in (k - 1, k + 1) if 0 <= i < len(step)]
+        ref = np.maximum(np.max(near, axis=0), floor)                       # (J,)
+        worst = max(worst, float((step[k] / ref).max()))
+    return worst

@@ -109,8 +109,8 @@ from .model import (
 from .skeleton import JOINT_NAMES
 from .checkpoint import (CHECKPOINT_KIND, CHECKPOINT_VERSION, export_weights,  # noqa: F401
                          load_checkpoint, load_model, save_checkpoint)
-from .align import alignment_losses, sketch_batch
-from .guidance import control_losses  # noqa: F401 - part of this module's API
+from .align import alignment_losses, camera_projections, sketch_batch
+from .guidance import control_losses, projected_trajectory_loss  # noqa: F401 - API
 from .text import hash_encoder  # noqa: F401 - part of this module's API
 
 __all__ = [
@@ -194,6 +194,9 @@ class TrainConfig:
     lambda_match: float = 1.0       # align stage, Eq. (13): weight of L_match (Eq. 10; 0 = off)
     lambda_recon: float = 1.0       # λ_r: weight of L_recon (Eq. 11; 0 = off, and cheaper)
     lambda_contrast: float = 1.0    # λ_c: weight of L_contrast (Eq. 12; 0 = off)
+    lambda_tr_2d: float = 0.0       # align stage: weight of the drawn trajectories' error of
+                                    # the decoded x̂₀ in the drawing's view (Eq. (16)'s G as a
+                                    # training term, depth-free); 0 = off
     tau: float = 0.1                # τ₁ of Eq. (12)
     sketch_noise: float = 0.02      # align stage: joint noise of the drawings (supp. B)
     scheduler: str = "mld"          # noise schedule, a key of SCHEDULERS
@@ -244,8 +247,8 @@ class TrainConfig:
                      "lambda_vel", "warmup", "seed", "num_threads", "max_clips",
                      "cond_drop_prob", "drop_keypose", "drop_trajectory", "single_joint",
                      "lambda_match",
-                     "lambda_recon", "lambda_contrast", "tau", "sketch_noise", "balance",
-                     "snr_cap", "turn_augment"):
+                     "lambda_recon", "lambda_contrast", "lambda_tr_2d", "tau", "sketch_noise",
+                     "balance", "snr_cap", "turn_augment"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
                 raise ValueError(f"{name} must be a finite number, got {v!r}")
@@ -257,7 +260,7 @@ class TrainConfig:
         if not 0 <= self.min_lr <= self.lr:
             raise ValueError(f"min_lr must be in [0, lr = {self.lr}], got {self.min_lr}")
         for name in ("weight_decay", "grad_clip", "lambda_tr", "lambda_key", "lambda_vel",
-                     "warmup", "max_clips"):
+                     "lambda_tr_2d", "warmup", "max_clips"):
             if getattr(self, name) < 0:
                 raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
         if not 0 <= self.seed < 2**63:
@@ -740,13 +743,19 @@ def train(**kwargs):
                 cond = condition_batch(joints_np[idx.numpy()], rng, cfg.min_t_r,
                                        single_joint=cfg.single_joint)
                 sketch = sketch_batch(cond, rng, noise=cfg.sketch_noise)
+                proj = camera_projections(sketch["camera"]) if cfg.lambda_tr_2d else None
 
-                def generation_loss(out, idx=idx, cond=cond):                    # Eq. (9)
+                def generation_loss(out, idx=idx, cond=cond, proj=proj):         # Eq. (9)
                     with torch.autocast("cpu", enabled=False):       # losses in float32
                         x0_hat, _ = sched.split_output(out.float(), x_t, t)
                         l_tr, l_key = control_losses(x0_hat, joints_all[idx], cond, mean,
                                                      std, model_cfg.representation)
-                    return cfg.lambda_tr * l_tr + cfg.lambda_key * l_key
+                        loss = cfg.lambda_tr * l_tr + cfg.lambda_key * l_key
+                        if proj is not None:                         # Eq. (16) in training
+                            loss = loss + cfg.lambda_tr_2d * projected_trajectory_loss(
+                                x0_hat, joints_all[idx], cond["traj_mask"], proj, mean, std,
+                                model_cfg.representation)
+                    return loss
 
                 with autocast():
                     terms = alignment_losses(model, x_t, t, a, cond, sketch, target, drop,

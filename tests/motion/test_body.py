@@ -64,16 +64,30 @@ def test_ground_feet_lifts_only_sinking_frames_by_their_depth():
     assert M.bone_length_variation(z) < 1e-12 and M.floor_penetration(z, tolerance=0) == 0.0
 
 
-def test_boundary_step_ratio_analytic():
+def test_boundary_step_and_jump_ratios_analytic():
     T = 20
     x = np.zeros((T, 22, 3))
     x[:, :, 2] = np.arange(T)[:, None] * 0.05                              # 5 cm / frame
     mask = np.zeros((T, 6), bool)
     mask[:8, 0] = True                                                     # stroke ends: step 7->8
     assert M.boundary_step_ratio(x, mask) == pytest.approx(1.0)
+    assert M.boundary_jump_ratio(x, mask) == pytest.approx(1.0)
     x[8:, :, 2] += 0.1                                                     # a 10 cm jump there
     assert M.boundary_step_ratio(x, mask) == pytest.approx(3.0)
+    assert M.boundary_jump_ratio(x, mask) == pytest.approx(3.0)            # 0.15 / 0.05
     assert np.isnan(M.boundary_step_ratio(x, np.ones((T, 6), bool)))       # no boundary
+    assert np.isnan(M.boundary_jump_ratio(x, np.ones((T, 6), bool)))
+    # a slow clip whose wrist swings fastest at the edge: the step ratio flags it, the jump
+    # ratio does not (its neighbouring steps are as fast)
+    y = np.zeros((T, 22, 3))
+    y[:, :, 2] = np.arange(T)[:, None] * 0.005                             # the body: 5 mm / frame
+    t = np.clip(np.arange(T) - 4, 0, 8)
+    y[:, 20, 1] = 0.05 * (1 - np.cos(np.pi * t / 8))                       # a swing, fastest at 8
+    assert M.boundary_step_ratio(y, mask) > 3
+    assert M.boundary_jump_ratio(y, mask) == pytest.approx(1.0)            # steps 7, 8 are equal
+    first = np.zeros((3, 6), bool)
+    first[0, 0] = True                                                     # edge at step 0
+    assert M.boundary_jump_ratio(x[:3], first) == pytest.approx(1.0)
 
 
 def test_two_bone_ik_reaches_the_target_with_both_lengths_in_the_old_bend_plane():

@@ -94,6 +94,41 @@ def test_control_losses_zero_at_ground_truth_and_analytic_shift():
     assert torch.allclose(l_key, torch.tensor(21 * 0.01, dtype=torch.float64))
 
 
+def test_projected_trajectory_loss_is_the_drawn_error_and_ignores_depth():
+    from physlab.motion.align import camera_projections
+    from physlab.motion.camera import Camera
+    from physlab.motion.guidance import projected_trajectory_loss
+
+    w = _windows(2)
+    f = np.stack([joints_to_features(x) for x in w])
+    stats = FeatureStats.from_features(f)
+    mean, std = (torch.tensor(v, dtype=torch.float64) for v in (stats.mean, stats.std))
+    cond = condition_batch(w, np.random.default_rng(1))
+    cams = [Camera(0.9, 20, 30), Camera(1.2, 10, -45)]
+    proj = camera_projections(torch.tensor([[c.scale, c.pitch, c.yaw, c.roll] for c in cams]))
+    for c, P in zip(cams, proj):                          # s R[:2], as Camera.project
+        x = np.random.default_rng(0).normal(size=(5, 3))
+        np.testing.assert_allclose(x @ P.double().numpy().T, c.project(x), atol=1e-6)
+    joints, m = torch.tensor(w), cond["traj_mask"]
+    x0 = torch.tensor(stats.normalize(f))
+    assert projected_trajectory_loss(x0, joints, m, proj, mean, std) < 1e-20
+    # the pelvis raised 0.1 m in every frame: seen as s R[:2] (0, 0.1, 0) on the pelvis column
+    shifted = torch.tensor(f.copy())
+    shifted[..., 3] += 0.1
+    got = projected_trajectory_loss((shifted - mean) / std, joints, m, proj, mean, std)
+    share = m[..., 0].double().sum(1) / m.double().sum((1, 2))
+    up = torch.stack([(P.double() @ torch.tensor([0, 0.1, 0.0], dtype=torch.float64)).pow(2).sum()
+                      for P in proj])
+    assert torch.allclose(got, (share * up).mean())
+    # a shift along each camera's view direction is invisible in its drawing
+    depth = torch.tensor(np.stack([0.3 * c.view_direction for c in cams]))
+    moved = joints + depth[:, None, None]
+    assert projected_trajectory_loss(x0, moved, m, proj, mean, std) < 1e-12    # float32 P
+    assert control_losses(x0, moved, cond, mean, std)[0] > 0.08     # the 3D L_tr sees 0.3 m
+    with pytest.raises(ValueError, match="camera must have shape"):
+        camera_projections(torch.zeros(2, 3))
+
+
 def test_velocity_loss_ignores_offsets_and_sees_jitter():
     from physlab.motion.train import velocity_loss
 
