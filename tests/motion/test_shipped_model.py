@@ -206,14 +206,15 @@ def drawn(real_data, gen):
 
 def test_the_shipped_2d_encoders_read_a_drawing(gen, drawn):
     """Sec. 5: the aligned 2D encoders steer the networks towards the drawing without any
-    guidance, and with the 2D guidance the projection lands on it (measured 2026-11-25 on
-    these 8 windows at 20 steps: text only 0.143, networks only 0.098, guided 0.012 units;
-    README: 64 windows). Bones stay rigid and feet on the floor."""
+    guidance, and with the 2D guidance the projection lands on it (measured 2026-11-27 on
+    these 8 windows at 20 steps, the encoders aligned 15,000 steps: trajectory text only 0.104,
+    networks only 0.072, guided 0.012 units; keypose 0.041 / 0.021 / 0.004; README: 64
+    windows). Bones stay rigid and feet on the floor."""
     assert gen.has_sketch_encoders
     rows, clips = drawn
     t, n, g = rows["text"], rows["networks"], rows["guided"]
-    assert n["trajectory_error_2d"] < 0.85 * t["trajectory_error_2d"], rows
-    assert n["keypose_mpjpe_2d"] < 0.85 * t["keypose_mpjpe_2d"], rows
+    assert n["trajectory_error_2d"] < 0.8 * t["trajectory_error_2d"], rows
+    assert n["keypose_mpjpe_2d"] < 0.65 * t["keypose_mpjpe_2d"], rows
     assert g["trajectory_error_2d"] < 0.035 and g["keypose_mpjpe_2d"] < 0.02, rows
     for x in clips.values():
         assert bone_length_variation(x).max() <= 0.01
