@@ -55,8 +55,10 @@ def test_drawing_snapping_dragging_and_generating(tmp_path):
     p0 = c.sketch.joints[0]
     stroke = [(p0[0] + 10 * k, p0[1]) for k in range(25)]     # from the pelvis, to the right
     _drag(c, stroke)
+    assert c.result.layout.display == "none"                  # no broken-image icon before
     x = c.generate()
     assert x.shape == (40, 22, 3) and c.conditions["keypose_at"] == "first"
+    assert c.result.layout.display is None
     err = c.trajectory_error_px()
     assert err["pelvis"] < 0.5 and "pelvis" in c.status      # the stand-in follows exactly
     assert c.result.value[:4] == b"\x89PNG"
@@ -64,6 +66,7 @@ def test_drawing_snapping_dragging_and_generating(tmp_path):
     c.save.click()
     c.clear.click()
     assert not c.sketch.strokes and c.status.endswith("cleared</span>") and not c.result.value
+    assert c.result.layout.display == "none"
     c.load.click()
     assert len(c.sketch.strokes) == 6 and c.sketch.joints is not None
     c.undo.click()

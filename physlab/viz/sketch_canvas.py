@@ -87,7 +87,8 @@ class SketchCanvas(CanvasWidget):
         self.save = w.Button(description="Save")
         self.load = w.Button(description="Load")
         self.readout = w.HTML(value="Draw a stick figure, then trajectories in red.")
-        self.result = w.Image(format="png", layout=w.Layout(max_width="520px"))
+        # hidden until there is a result: an empty Image shows a broken-image icon
+        self.result = w.Image(format="png", layout=w.Layout(max_width="520px", display="none"))
         self._on_clicks(((self.snap, self._on_snap), (self.undo, self._on_undo),
                          (self.clear, self._on_clear), (self.go, self._on_generate),
                          (self.save, self._on_save), (self.load, self._on_load)))
@@ -218,6 +219,7 @@ class SketchCanvas(CanvasWidget):
         self.sketch.joints = None
         self.motion = None
         self.result.value = b""
+        self.result.layout.display = "none"
         self.canvas[2].clear()
         self.redraw()
         self._say("cleared")
@@ -284,6 +286,7 @@ class SketchCanvas(CanvasWidget):
         cond = self.conditions
         self.result.value = png_bytes(strobe(x, every=8, size=(520, 300),
                                             backend=self.backend))
+        self.result.layout.display = None
         msg = f"generated “{cond['action']}”"
         if err:
             msg += "; projected joint vs stroke: " + ", ".join(
