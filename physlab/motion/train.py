@@ -313,6 +313,10 @@ class TrainConfig:
                                           or self.lambda_contrast):
             raise ValueError("stage 'align' needs at least one of --lambda-match, "
                              "--lambda-recon, --lambda-contrast > 0")
+        if self.lambda_tr_2d and (self.stage != "align" or not self.lambda_recon):
+            raise ValueError(f"--lambda-tr-2d {self.lambda_tr_2d} is a term of L_recon in stage "
+                             f"'align' (the pass through the frozen generator): use it with "
+                             f"--stage align and --lambda-recon > 0, or leave it at 0")
 
 
 # ----------------------------------------------------------------------------- data

@@ -345,8 +345,10 @@ def test_align_smoke_trains_only_the_2d_encoders(base_run, tmp_path):
     before = load_model(control["path"])["model"].state_dict()
     after = model.state_dict()
     assert all(torch.equal(v, after[k]) for k, v in before.items())        # generator frozen
-    assert train(stage="align", base_ckpt=str(control["path"]), out=str(out), steps=3,
-                 **SMOKE)["step"] == 3                                      # resumes
+    res = train(stage="align", base_ckpt=str(control["path"]), out=str(out), steps=3,
+                lambda_tr_2d=8.0, **SMOKE)      # resumes, with the 2D term (the shipped recipe)
+    assert res["step"] == 3 and np.isfinite(res["loss"])
+    assert all(torch.equal(v, load_model(out)["model"].state_dict()[k]) for k, v in before.items())
     ab = train(stage="align", base_ckpt=str(control["path"]), out=str(tmp_path / "ab.pt"),
                steps=1, lambda_recon=0.0, **SMOKE)                          # Table A2 variant
     assert np.isfinite(ab["loss"])
@@ -366,6 +368,11 @@ def test_align_smoke_trains_only_the_2d_encoders(base_run, tmp_path):
                     lambda_contrast=0)
     with pytest.raises(ValueError, match="needs --base-ckpt"):
         TrainConfig(stage="align")
+    for bad in ({"stage": "control"}, {"stage": "align", "lambda_recon": 0}):
+        with pytest.raises(ValueError, match="--lambda-tr-2d 2.0 is a term of L_recon"):
+            TrainConfig(base_ckpt="c.pt", lambda_tr_2d=2.0, **bad)
+    with pytest.raises(ValueError, match="lambda_tr_2d must be >= 0"):
+        TrainConfig(stage="align", base_ckpt="c.pt", lambda_tr_2d=-1.0)
 
 
 
