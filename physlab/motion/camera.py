@@ -88,6 +88,12 @@ class Camera:
         return euler_to_matrix([self.roll, self.pitch, self.yaw], "ZXY")
 
     @property
+    def projection_matrix(self):
+        """``(2, 3)`` matrix ``s · R[:2]`` of :meth:`project`: normalised image coordinates of
+        a world point ``x`` are ``projection_matrix @ x``."""
+        return self.scale * self.rotation[:2]
+
+    @property
     def view_direction(self):
         """``(3,)`` unit vector the camera looks along (world coordinates)."""
         return -self.rotation[2]
@@ -101,7 +107,7 @@ class Camera:
                              f"{x.shape}")
         if not np.all(np.isfinite(x)):
             raise ValueError("joints contain NaN or inf")
-        return self.scale * x @ self.rotation[:2].T
+        return x @ self.projection_matrix.T
 
     def to_dict(self):
         """JSON-ready ``{"scale", "pitch", "yaw", "roll"}``."""

@@ -125,7 +125,7 @@ def build_sketch(keypose_2d=None, keypose_at="first", trajectories_2d=None, came
         raise ValueError(f"keypose_2d / trajectories_2d need the camera they were drawn in: "
                          f"camera=physlab.motion.camera.Camera(scale, pitch, yaw, roll), got "
                          f"{camera!r}")
-    projection = camera.scale * camera.rotation[:2] if drawn else None
+    projection = camera.projection_matrix if drawn else None
     return {"trajectory": trajectory, "traj_mask": mask, "keypose": keypose,
             "key_frame": key_frame, "projection": projection,
             "has_keypose": keypose is not None, "has_trajectory": bool(mask.any())}

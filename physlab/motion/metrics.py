@@ -288,6 +288,15 @@ def floor_penetration(joints, tolerance=0.02, feet=FOOT_JOINTS):
     return float(v[0]) if single else v
 
 
+def _boundary_steps(joints, mask, min_frames):
+    """Every joint's frame-to-frame step ``(T-1, J)`` (m) of one clip, and the steps ``k``
+    (frame ``k -> k+1``) where the trajectory mask ``(T, R)`` switches on or off."""
+    x, _ = _as_batch(joints, min_frames=min_frames)
+    m = np.asarray(mask, dtype=bool).any(axis=-1)                          # (T,)
+    return (np.linalg.norm(np.diff(x[0], axis=0), axis=-1),
+            np.flatnonzero(m[1:] != m[:-1]))
+
+
 def boundary_step_ratio(joints, mask):
     """How much a clip jumps where a partial trajectory condition starts or ends: the
     largest frame-to-frame joint step at a boundary frame of ``mask`` divided by the clip's
@@ -302,13 +311,11 @@ def boundary_step_ratio(joints, mask):
     -------
     float, or NaN when the mask has no boundary inside the clip (all or nothing).
     """
-    x, _ = _as_batch(joints, min_frames=2)
-    m = np.asarray(mask, dtype=bool).any(axis=-1)                          # (T,)
-    step = np.linalg.norm(np.diff(x[0], axis=0), axis=-1).max(axis=-1)      # (T-1,)
-    edges = np.flatnonzero(m[1:] != m[:-1])                                 # step k: k -> k+1
+    step, edges = _boundary_steps(joints, mask, min_frames=2)
     if edges.size == 0:
         return float("nan")
-    return float(step[edges].max() / max(np.median(step), 1e-9))
+    big = step.max(axis=-1)                                                 # (T-1,)
+    return float(big[edges].max() / max(np.median(big), 1e-9))
 
 
 def boundary_jump_ratio(joints, mask):
@@ -330,10 +337,7 @@ def boundary_jump_ratio(joints, mask):
     -------
     float, or NaN when the mask has no boundary inside the clip.
     """
-    x, _ = _as_batch(joints, min_frames=3)
-    m = np.asarray(mask, dtype=bool).any(axis=-1)
-    step = np.linalg.norm(np.diff(x[0], axis=0), axis=-1)                  # (T-1, J)
-    edges = np.flatnonzero(m[1:] != m[:-1])
+    step, edges = _boundary_steps(joints, mask, min_frames=3)
     if edges.size == 0:
         return float("nan")
     floor = max(float(np.median(step.max(axis=-1))), 1e-9)
