@@ -23,7 +23,7 @@ help:
 	@echo "make test       set up .venv and run the whole suite (unit tests, executed lessons, browser test)"
 	@echo "make reproduce  execute every lesson headless, write figures to reports/"
 	@echo "make bench      run the benchmarks in benchmarks/"
-	@echo "make motion-model  retrain the shipped motion checkpoints in data/motion/ (~205 min, 2 cores)"
+	@echo "make motion-model  retrain the shipped motion checkpoints in data/motion/ (2 cores; time: data/motion/README.md)"
 
 # (Re)install whenever pyproject.toml changes.
 $(STAMP): pyproject.toml
@@ -113,7 +113,7 @@ motion-model: $(STAMP) motion-evaluator
 	$(MOTION_TRAIN) --stage base --steps 10000 --out $(MOTION_RUNS)/base.pt
 	$(MOTION_TRAIN) --stage control --steps 12000 --base-ckpt $(MOTION_RUNS)/base.pt \
 		--out $(MOTION_RUNS)/control.pt --export $(MOTION_EXPORT)/sketch2anim_control.pt
-	$(MOTION_TRAIN) --stage control --single-controlnet --steps 6000 \
+	$(MOTION_TRAIN) --stage control --single-controlnet --steps 12000 \
 		--base-ckpt $(MOTION_RUNS)/base.pt --out $(MOTION_RUNS)/single_controlnet.pt \
 		--export $(MOTION_EXPORT)/sketch2anim_single_controlnet.pt
 	$(MOTION_TRAIN) --stage align --steps 10000 --single-joint 0.25 \

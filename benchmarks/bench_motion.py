@@ -15,7 +15,10 @@ What is measured
    stage ``control`` (trajectory ControlNet + keypose adapter on the frozen base), with the
    default model size (``DenoiserConfig``) and batch, one process with ``--threads`` threads
    (2; ``torchrun`` with two 1-thread processes is not faster on this machine); both again
-   with ``precision="bf16"`` (forward passes in bfloat16 autocast), as a ratio to float32.
+   with ``precision="bf16"`` (forward passes in bfloat16 autocast), as a ratio to float32;
+   and the bf16 runs once more with ``torch.nn.Dropout`` in place of physlab's cheaper
+   :class:`~physlab.motion.model.Dropout` (the reference), interleaved ``--repeats`` times,
+   medians compared.
    The weights are whatever these few steps give — sampling speed does not depend on them.
 2. **Sampling** with the shipped generator (``--checkpoint``, default
    :data:`~physlab.motion.sampling.DEFAULT_CHECKPOINT`; the trained weights matter, since
@@ -40,6 +43,7 @@ import resource
 import sys
 import tempfile
 import time
+from contextlib import contextmanager, nullcontext
 from pathlib import Path
 
 import numpy as np
@@ -62,6 +66,20 @@ def _parser():
     p.add_argument("--quick", action="store_true",
                    help="smoke-size model, 2 training steps, sampled instead of the shipped one")
     return p
+
+
+@contextmanager
+def _torch_dropout():
+    """Build models with ``torch.nn.Dropout`` (the reference) instead of physlab's."""
+    import torch
+
+    from physlab.motion import model
+
+    ours, model.Dropout = model.Dropout, torch.nn.Dropout
+    try:
+        yield
+    finally:
+        model.Dropout = ours
 
 
 def _time(fn, repeats):
@@ -101,6 +119,18 @@ def main(argv=None):
                               **common),
                 "control": train(stage="control", base_ckpt=str(base["path"]), precision="bf16",
                                  out=str(d / "control16.pt"), **common)}
+        dropout = {}                         # windows/s with physlab's / torch's dropout
+        for r in range(1 if args.quick else args.repeats):
+            for ref in (False, True):
+                with _torch_dropout() if ref else nullcontext():
+                    runs = {"base": train(stage="base", out=str(d / f"b{r}{ref}.pt"),
+                                          precision="bf16", **common)}
+                    runs["control"] = train(stage="control", base_ckpt=str(base["path"]),
+                                            out=str(d / f"c{r}{ref}.pt"), precision="bf16",
+                                            **common)
+                for k, v in runs.items():
+                    dropout.setdefault((k, ref), []).append(v["windows_per_s"])
+        dropout = {k: float(np.median(v)) for k, v in dropout.items()}
         sizes = {k: Path(r["path"]).stat().st_size / 2**20 for k, r in
                  (("base", base), ("control", control))}
         torch.set_num_threads(args.sample_threads)
@@ -160,6 +190,11 @@ def main(argv=None):
     for k, ref in (("base", base), ("control", control)):
         print(f"training, {k} stage, --precision bf16 | {bf16[k]['windows_per_s']:.0f} "
               f"windows/s ({bf16[k]['windows_per_s'] / ref['windows_per_s']:.2f}x float32)")
+    for k in ("base", "control"):
+        ours, ref = dropout[(k, False)], dropout[(k, True)]
+        print(f"training, {k} stage, bf16, physlab Dropout / torch.nn.Dropout (median of "
+              f"{1 if args.quick else args.repeats}) | {ours:.0f} / {ref:.0f} windows/s "
+              f"({ours / ref:.2f}x)")
     print(f"sampling from | {Path(path).name}")
     print(f"clip, text only, CFG, DDIM {steps} | {t_text:.3f} s")
     print(f"clip, keypose + trajectory, networks only, DDIM {steps} | {t_ctrl:.3f} s")
@@ -184,7 +219,7 @@ def main(argv=None):
     out.update(base=base, control=control, bf16=bf16, seconds_text=t_text,
                seconds_control=t_ctrl, seconds_guided=t_guided, seconds_variants=t_variants,
                seconds_reference=t_ref, seconds_sketch=t_sketch, peak_mib=peak,
-               checkpoint_mib=sizes, seconds_storyboard=t_board)
+               checkpoint_mib=sizes, seconds_storyboard=t_board, dropout_windows_per_s=dropout)
     return out
 
 

@@ -57,9 +57,13 @@ def test_bench_motion_quick_runs(real_data, capsys):
     out = bench_motion.main(["--quick", "--threads", "1", "--repeats", "1"])
     assert out["base"]["windows_per_s"] > 0 and out["control"]["windows_per_s"] > 0
     assert all(r["windows_per_s"] > 0 for r in out["bf16"].values())
+    assert set(out["dropout_windows_per_s"]) == {(k, ref) for k in ("base", "control")
+                                                 for ref in (False, True)}
+    assert all(v > 0 for v in out["dropout_windows_per_s"].values())
     assert out["seconds_control"] > 0 and out["seconds_reference"] > 0
     assert out["seconds_guided"] > 0 and all(t > 0 for t in out["seconds_variants"].values())
-    assert "RTX 4090" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert "RTX 4090" in printed and "torch.nn.Dropout" in printed
 
 
 def test_bench_widgets_finds_every_lesson_widget_and_moves_controls_in_range():

@@ -11,6 +11,7 @@ from physlab.motion.features import canonicalize, features_to_joints, joints_to_
 from physlab.motion.model import (
     ControlledDenoiser,
     DenoiserConfig,
+    Dropout,
     MotionDenoiser,
     count_parameters,
     features_to_joints_torch,
@@ -102,6 +103,47 @@ def test_shapes_base_controlled_single():
     assert double(x, t, a, cond).shape == x.shape and double.adapter is not None
     with pytest.raises(ValueError, match="at most one"):
         ControlledDenoiser(base, single_controlnet=True, double_controlnet=True)
+
+
+@pytest.mark.parametrize("p", [0.1, 0.3, 0.5])
+@pytest.mark.parametrize("dtype", [torch.float32, torch.bfloat16])
+def test_dropout_is_inverted_dropout_with_the_asked_rate(p, dtype):
+    """physlab's cheaper dropout keeps nn.Dropout's contract: an element survives with
+    probability 1 - p (binomial bound, 5 sigma over 10^6 draws), survivors are scaled by
+    1 / (1 - p) (p rounded to a multiple of 2**-16), the expectation is unchanged, and the gradient is the same mask."""
+    torch.manual_seed(0)
+    n = 1_000_003                                       # not a multiple of 4 (bits per draw)
+    x = torch.full((n,), 2.0, dtype=dtype, requires_grad=True)
+    drop = Dropout(p).train()
+    y = drop(x)
+    kept = y != 0
+    frac = kept.double().mean().item()
+    assert abs(frac - (1 - p)) < 5 * (p * (1 - p) / n) ** 0.5
+    k = round(p * 65536)                                # p is rounded to k / 65536
+    assert abs(65536 / (65536 - k) - 1 / (1 - p)) < 2**-15
+    scale = 2 * torch.tensor(65536 / (65536 - k), dtype=dtype)
+    assert torch.equal(y[kept], scale.expand(int(kept.sum())))
+    assert abs(y.double().mean().item() - 2.0) < 5 * 2.0 * (p / (1 - p) / n) ** 0.5 + 0.01
+    y.sum().backward()
+    assert torch.equal(x.grad, y.detach() / 2)
+    # masks along the tensor are independent of each other: neighbours' keep rates agree
+    rates = kept.view(-1)[: n - n % 4].view(-1, 4).double().mean(0)
+    assert torch.all((rates - (1 - p)).abs() < 5 * (p * (1 - p) / (n / 4)) ** 0.5)
+
+
+def test_dropout_is_the_identity_in_eval_and_at_zero_and_refuses_bad_rates():
+    x = torch.randn(3, 5, 7)
+    assert Dropout(0.1).eval()(x) is x
+    assert Dropout(0.0).train()(x) is x
+    torch.manual_seed(3)
+    a = Dropout(0.1).train()(x)
+    torch.manual_seed(3)
+    assert torch.equal(Dropout(0.1).train()(x), a)            # seeded like nn.Dropout
+    for bad in (-0.1, 1.0, float("nan"), "0.1"):
+        with pytest.raises(ValueError, match="dropout probability"):
+            Dropout(bad)
+    # no state: a model's keys are those it had with nn.Dropout
+    assert Dropout(0.1).state_dict() == {} and "p=0.1" in repr(Dropout(0.1))
 
 
 def test_zero_init_controlled_equals_base_exactly():
