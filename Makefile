@@ -80,16 +80,16 @@ bench: $(STAMP)
 # (every take but the held-out 002) on 2 cores: the text-motion evaluator (1000 steps, one
 # thread), the text-conditioned base denoiser (10000 steps), the trajectory ControlNet + keypose
 # adapter on the frozen base (12000 steps; 6000 gave 0.101 / 0.038 m instead of 0.081 / 0.033 m
-# networks-only trajectory / pose error, README) and the single-ControlNet ablation (6000 steps,
-# half the adapter's budget: Table 2 compares the two at 6000), then the 2D encoders aligned to
-# the 3D ones (align stage: 10000 steps of Eq. 13, then continued to 15000 on the same checkpoint,
-# a warm restart of the cosine, with the drawn trajectories' 2D error as an extra term,
-# --lambda-tr-2d 8: networks-only Average protocol 1.85x -> 2.07x text only, README) and the
-# lift-and-control lifter. Measured 2026-11-27 in bf16 on an idle 2-core host: evaluator 6.2 min,
-# base 22.9 min, control (6000 steps) 35.8 min, single ControlNet 23.4 min, then align (10000
-# steps) about 70 min at that run's 153 windows/s, and the lifter about 10 min: ~240 min in all
-# with the 12000-step control and the 15000-step align. On a day the host ran about twice as
-# fast: base 10.5, control 46 min (12000 steps), align 35 + 18 min.
+# networks-only trajectory / pose error, README) and the single-ControlNet ablation (12000 steps,
+# the adapter's budget, for Table 2), then the 2D encoders aligned to the 3D ones (align stage:
+# 10000 steps of Eq. 13, then continued to 15000 on the same checkpoint, a warm restart of the
+# cosine, with the drawn trajectories' 2D error as an extra term, --lambda-tr-2d 8: networks-only
+# Average protocol 1.85x -> 2.07x text only, README) and the lift-and-control lifter.
+# Timed 2026-11-27 on the 2-core host on a fast day (runs/s32; the host varies up to 2x from day
+# to day): evaluator 4.3 min, base 8.4, control 34.0, single ControlNet 21.6 - issue 12's models
+# in 68 min - then align about 45 min (354 windows/s, measured alone over 1500 of its
+# steps; that run was stopped at step 5962 to free the host) and the lifter about 10 min: about
+# 2 h in all.
 # Resumable: rerun after an interruption (Ctrl-C or `kill` writes a checkpoint).
 # Full-precision checkpoints stay in $(MOTION_RUNS); $(MOTION_EXPORT) gets the fp16 inference
 # copies (set MOTION_EXPORT=runs/x to retrain beside the shipped models and compare).
