@@ -277,11 +277,12 @@ class Dropout(nn.Module):
     test reads 16 random bits, drawn four to one 64-bit ``torch.randint`` draw, against
     ``nn.Dropout``'s one Bernoulli draw per element. On a 2-core AMD EPYC the random draws were
     most of the cost of dropout, and dropout a quarter of a control-stage training step
-    (``torch.profiler``, 2026-11-27); this one is 3x faster, and bf16 training 1.1-1.25x
-    (``benchmarks/bench_motion.py`` measures it against ``nn.Dropout`` in the same run). The drop probability is
-    ``p`` rounded to a multiple of 2**-16; kept elements are scaled by ``1 / (1 - p)`` for that
-    rounded ``p``, so the expectation is exact. Identity in eval mode and for ``p = 0``; no
-    parameters, so ``state_dict`` keys are those of ``nn.Dropout``."""
+    (``cProfile``, 2026-11-27); this one is 3x faster, and bf16 training 1.1-1.25x
+    (``benchmarks/bench_motion.py`` measures it against ``nn.Dropout`` in the same run).
+    The drop probability is ``p`` rounded to a multiple of 2**-16 (below 2**-17 it is 0);
+    kept elements are scaled by ``1 / (1 - p)`` for that rounded ``p``, so the expectation is
+    exact. Identity in eval mode and for ``p = 0``; no parameters, so ``state_dict`` keys are
+    those of ``nn.Dropout``."""
 
     def __init__(self, p: float = 0.5):
         super().__init__()

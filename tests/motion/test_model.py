@@ -110,7 +110,8 @@ def test_shapes_base_controlled_single():
 def test_dropout_is_inverted_dropout_with_the_asked_rate(p, dtype):
     """physlab's cheaper dropout keeps nn.Dropout's contract: an element survives with
     probability 1 - p (binomial bound, 5 sigma over 10^6 draws), survivors are scaled by
-    1 / (1 - p) (p rounded to a multiple of 2**-16), the expectation is unchanged, and the gradient is the same mask."""
+    1 / (1 - p) (p rounded to a multiple of 2**-16), the expectation is unchanged, and the
+    gradient is the same mask."""
     torch.manual_seed(0)
     n = 1_000_003                                       # not a multiple of 4 (bits per draw)
     x = torch.full((n,), 2.0, dtype=dtype, requires_grad=True)
@@ -135,6 +136,7 @@ def test_dropout_is_the_identity_in_eval_and_at_zero_and_refuses_bad_rates():
     x = torch.randn(3, 5, 7)
     assert Dropout(0.1).eval()(x) is x
     assert Dropout(0.0).train()(x) is x
+    assert Dropout(2**-18).train()(x) is x                # rounds to 0 of 65536
     torch.manual_seed(3)
     a = Dropout(0.1).train()(x)
     torch.manual_seed(3)
