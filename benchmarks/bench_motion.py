@@ -15,10 +15,10 @@ What is measured
    stage ``control`` (trajectory ControlNet + keypose adapter on the frozen base), with the
    default model size (``DenoiserConfig``) and batch, one process with ``--threads`` threads
    (2; ``torchrun`` with two 1-thread processes is not faster on this machine); both again
-   with ``precision="bf16"`` (forward passes in bfloat16 autocast), as a ratio to float32;
-   and the bf16 runs once more with ``torch.nn.Dropout`` in place of physlab's cheaper
-   :class:`~physlab.motion.model.Dropout` (the reference), interleaved ``--repeats`` times,
-   medians compared.
+   ``--repeats`` times with ``precision="bf16"`` (forward passes in bfloat16 autocast), the
+   median as a ratio to float32; interleaved with those, the same bf16 runs with
+   ``torch.nn.Dropout`` in place of physlab's cheaper :class:`~physlab.motion.model.Dropout`
+   (the reference), medians compared.
    The weights are whatever these few steps give — sampling speed does not depend on them.
 2. **Sampling** with the shipped generator (``--checkpoint``, default
    :data:`~physlab.motion.sampling.DEFAULT_CHECKPOINT`; the trained weights matter, since
@@ -115,11 +115,7 @@ def main(argv=None):
         base = train(stage="base", out=str(d / "base.pt"), **common)
         control = train(stage="control", base_ckpt=str(base["path"]), out=str(d / "control.pt"),
                         **common)
-        bf16 = {"base": train(stage="base", out=str(d / "base16.pt"), precision="bf16",
-                              **common),
-                "control": train(stage="control", base_ckpt=str(base["path"]), precision="bf16",
-                                 out=str(d / "control16.pt"), **common)}
-        dropout = {}                         # windows/s with physlab's / torch's dropout
+        bf16, dropout = None, {}          # bf16 runs; windows/s with physlab's / torch's dropout
         for r in range(1 if args.quick else args.repeats):
             for ref in (False, True):
                 with _torch_dropout() if ref else nullcontext():
@@ -128,6 +124,7 @@ def main(argv=None):
                     runs["control"] = train(stage="control", base_ckpt=str(base["path"]),
                                             out=str(d / f"c{r}{ref}.pt"), precision="bf16",
                                             **common)
+                bf16 = bf16 or runs                        # the first run with physlab's
                 for k, v in runs.items():
                     dropout.setdefault((k, ref), []).append(v["windows_per_s"])
         dropout = {k: float(np.median(v)) for k, v in dropout.items()}
@@ -188,8 +185,9 @@ def main(argv=None):
     print(f"training, base stage | {base['windows_per_s']:.0f} windows/s")
     print(f"training, control stage | {control['windows_per_s']:.0f} windows/s")
     for k, ref in (("base", base), ("control", control)):
-        print(f"training, {k} stage, --precision bf16 | {bf16[k]['windows_per_s']:.0f} "
-              f"windows/s ({bf16[k]['windows_per_s'] / ref['windows_per_s']:.2f}x float32)")
+        wps = dropout[(k, False)]
+        print(f"training, {k} stage, --precision bf16 | {wps:.0f} windows/s "
+              f"({wps / ref['windows_per_s']:.2f}x float32)")
     for k in ("base", "control"):
         ours, ref = dropout[(k, False)], dropout[(k, True)]
         print(f"training, {k} stage, bf16, physlab Dropout / torch.nn.Dropout (median of "

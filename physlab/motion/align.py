@@ -104,9 +104,9 @@ def sketch_batch(cond, rng, noise=JOINT_NOISE, proportions=PROPORTION_RANGE, cam
 
 
 def camera_projections(camera):
-    """``(B, 2, 3)`` float32 projection matrices ``s · R[:2]`` (:attr:`~physlab.motion.camera.
-    Camera.projection_matrix`) of a :func:`sketch_batch` ``camera`` tensor ``(B, 4)`` (scale, pitch, yaw,
-    roll in degrees)."""
+    """``(B, 2, 3)`` float32 projection matrices ``s · R[:2]``
+    (:attr:`~physlab.motion.camera.Camera.projection_matrix`) of a :func:`sketch_batch`
+    ``camera`` tensor ``(B, 4)`` (scale, pitch, yaw, roll in degrees)."""
     cam = torch.as_tensor(camera).double()
     if cam.ndim != 2 or cam.shape[1] != 4:
         raise ValueError(f"camera must have shape (B, 4) [scale, pitch, yaw, roll], got "
