@@ -87,9 +87,9 @@ bench: $(STAMP)
 # Average protocol 1.85x -> 2.07x text only, README) and the lift-and-control lifter.
 # Timed 2026-11-27 on the 2-core host on a fast day (runs/s32; the host varies up to 2x from day
 # to day): evaluator 4.3 min, base 8.4, control 34.0, single ControlNet 21.6 - issue 12's models
-# in 68 min - then align about 45 min (354 windows/s, measured alone over 1500 of its
-# steps; that run was stopped at step 5962 to free the host) and the lifter about 10 min: about
-# 2 h in all.
+# in 68 min - then align about 45-47 min (340-354 windows/s, measured alone over 1500 of its
+# first steps and its last 5000; that run was stopped at step 5962 to free the host and
+# resumed) and the lifter about 10 min: about 2 h in all.
 # Resumable: rerun after an interruption (Ctrl-C or `kill` writes a checkpoint).
 # Full-precision checkpoints stay in $(MOTION_RUNS); $(MOTION_EXPORT) gets the fp16 inference
 # copies (set MOTION_EXPORT=runs/x to retrain beside the shipped models and compare).

@@ -518,7 +518,7 @@ def evaluate(control, single_controlnet=None, windows=64, steps=50, guidance=2.5
              out=None, progress=True, data_root=None, body_constraints=True,
              control_guidance=1.0, guidance_variants=False, evaluator="default",
              foot_lock=True, frequencies=None, double_controlnet=None, pose_detail=False,
-             takes=TEST_TAKES):
+             takes=TEST_TAKES, condition_scale=1.0):
     """Evaluate a control checkpoint on held-out Bandai-Namco windows (module docstring).
 
     Keyword names match the CLI flags.
@@ -534,6 +534,9 @@ def evaluate(control, single_controlnet=None, windows=64, steps=50, guidance=2.5
     text-only row; control_guidance : float >= 0, the text scale of the controlled rows
     (the generator's default under control, :data:`~physlab.motion.sampling.
     CONTROL_TEXT_GUIDANCE`).
+    condition_scale : float >= 0, w_c of Eq. (14) on the keypose and trajectories in every
+        controlled row (:meth:`~physlab.motion.sampling.Generator.__call__`; 1 = the
+        networks as they are, the generator's default).
     seed : int, seeds the conditions (``rng``) and the samples (``seed + i``).
     out : None or a folder: writes ``table.md`` and ``rows.json`` there (atomically).
     progress : bool, tqdm bars.
@@ -586,6 +589,10 @@ def evaluate(control, single_controlnet=None, windows=64, steps=50, guidance=2.5
             or not math.isfinite(control_guidance) or control_guidance < 0):
         raise ValueError(f"control_guidance must be a finite number >= 0, got "
                          f"{control_guidance!r}")
+    if (isinstance(condition_scale, bool) or not isinstance(condition_scale, (int, float))
+            or not math.isfinite(condition_scale) or condition_scale < 0):
+        raise ValueError(f"condition_scale must be a finite number >= 0 (w_c of Eq. (14); 1 = "
+                         f"the networks as they are), got {condition_scale!r}")
     kw = {"steps": int(steps), "seed": int(seed), "progress": progress,
           "body_constraints": bool(body_constraints), "foot_lock": bool(foot_lock),
           "frequencies": frequencies}
@@ -610,7 +617,8 @@ def evaluate(control, single_controlnet=None, windows=64, steps=50, guidance=2.5
             variants.update({" " + k: v for k, v in GUIDANCE_VARIANTS.items()})
         for suffix, options in variants.items():
             label = name + suffix
-            x, s = _sample(gen, data, conds, True, label=label, options=options,
+            x, s = _sample(gen, data, conds, True, label=label,
+                           options={**options, "condition_scale": float(condition_scale)},
                            guidance=float(control_guidance), **kw)
             rows[label] = metrics(x, s)
             if pose_detail and not suffix:
@@ -624,6 +632,7 @@ def evaluate(control, single_controlnet=None, windows=64, steps=50, guidance=2.5
                   "windows": len(conds),
                   "windows_available": data["n_available"], "steps": int(steps),
                   "guidance": float(guidance), "control_guidance": float(control_guidance),
+                  "condition_scale": float(condition_scale),
                   "seed": int(seed), "min_t_r": MIN_T_R,
                   "test_takes": list(takes), "body_constraints": bool(body_constraints),
                   "foot_lock": bool(foot_lock), "frequencies": frequencies,
@@ -1249,6 +1258,9 @@ def _parser():
                    help="text CFG scale of the text-only row (default 2.5, the generator's)")
     p.add_argument("--control-guidance", type=float, default=1.0,
                    help="text CFG scale of the controlled rows (default 1)")
+    p.add_argument("--condition-scale", type=float, default=1.0,
+                   help="w_c of Eq. (14) on the keypose and trajectories in the controlled "
+                        "rows of the 3D table (default 1: the networks as they are)")
     p.add_argument("--seed", type=int, default=0, help="conditions and sampling seed")
     p.add_argument("--out", type=Path, default=None, help="folder for table.md and rows.json")
     p.add_argument("--data", "--data-root", dest="data_root", default=None,
@@ -1346,11 +1358,15 @@ def main(argv=None):
         raise ValueError("--take chooses the 3D table's windows; drop --no-3d")
     if args.pose_detail and args.no_3d:
         raise ValueError("--pose-detail splits the 3D table's pose error; drop --no-3d")
+    if args.condition_scale != 1.0 and args.no_3d:
+        raise ValueError("--condition-scale applies to the 3D table's controlled rows; drop "
+                         "--no-3d")
     takes = tuple(args.take or TEST_TAKES)
     rows = {} if args.no_3d else evaluate(args.control, single_controlnet=args.single_controlnet,
                     double_controlnet=args.double_controlnet,
                     windows=args.windows, steps=args.steps, guidance=args.guidance,
                     control_guidance=args.control_guidance,
+                    condition_scale=args.condition_scale,
                     seed=args.seed, out=args.out, progress=not args.no_progress,
                     data_root=args.data_root,
                     body_constraints=not args.no_body_constraints,

@@ -159,6 +159,29 @@ def test_guidance_variant_rows(ckpts):
         evaluate(ckpts["control"], windows=1, steps=1, progress=False, guidance_variants="yes")
 
 
+def test_condition_scale_reaches_every_controlled_row_and_is_recorded(ckpts, tmp_path):
+    """Eq. (14)'s w_c: 0 leaves only the text model (the conditions are ignored), so the
+    controlled rows change; the text-only row does not; the CLI passes it and rows.json
+    records it."""
+    kw = dict(windows=2, steps=2, progress=False, body_constraints=False, evaluator=None)
+    one = evaluate(ckpts["control"], **kw)
+    out = tmp_path / "wc0"
+    zero = main(["--control", str(ckpts["control"]), "--windows", "2", "--steps", "2",
+                 "--no-progress", "--no-body-constraints", "--no-evaluator",
+                 "--condition-scale", "0", "--out", str(out)])
+    untimed = [k for k in one["text only"] if k != "seconds_per_clip"]
+    assert [zero["text only"][k] for k in untimed] == [one["text only"][k] for k in untimed]
+    for row in ("keypose + trajectory", "keypose + trajectory + guidance"):
+        assert zero[row]["trajectory_error_3d"] != one[row]["trajectory_error_3d"], row
+    assert json.loads((out / "rows.json").read_text())["config"]["condition_scale"] == 0.0
+    for bad in (-1, float("nan"), True, "2"):
+        with pytest.raises(ValueError, match="condition_scale"):
+            evaluate(ckpts["control"], condition_scale=bad, **kw)
+    with pytest.raises(ValueError, match="--condition-scale applies to the 3D table"):
+        main(["--control", str(ckpts["control"]), "--no-3d", "--sketch",
+              "--condition-scale", "1.5"])
+
+
 def test_cli_writes_table_and_rows(ckpts, tmp_path, capsys):
     out = tmp_path / "eval"
     res = main(["--control", str(ckpts["control"]), "--windows", "3", "--steps", "1",

@@ -22,17 +22,17 @@ SINGLE = DATA / "sketch2anim_single_controlnet.pt"
 LIFTER = DATA / "sketch_lifter.pt"
 SHIPPED = [DEFAULT_CHECKPOINT, SINGLE, LIFTER]
 #: Bounds of the networks-only control on 8 held-out windows, 20 DDIM steps, with margins
-#: (measured 2026-11-27 with the control stage trained 12,000 steps on the 10,000-step base:
-#: trajectory 0.083 m, keypose placed 0.075 m / pose 0.028 m; text only 0.178 / 0.244 /
-#: 0.080 m; the 6,000-step control stage shipped before: 0.096 / 0.105 / 0.029 m). On 64
-#: windows (README): networks only 0.081 m trajectory, 0.075 m placed, 0.033 m pose error —
-#: issue 12's 0.15 m / 0.06 m targets (its keypose MPJPE is the pose error: a Sketch2Anim
-#: keypose carries no placement).
+#: (measured 2026-11-27 with the shipped `make motion-model` retrain, runs/s32: trajectory
+#: 0.086 m, keypose placed 0.075 m / pose 0.027 m; text only 0.167 / 0.239 / 0.084 m; the
+#: models shipped before it: 0.083 / 0.075 / 0.028 m). On 64 windows (README): networks only
+#: 0.082 m trajectory, 0.075 m placed, 0.032 m pose error — issue 12's 0.15 m / 0.06 m
+#: targets (its keypose MPJPE is the pose error: a Sketch2Anim keypose carries no placement).
 TRAJ_LIMIT, KEY_LIMIT, POSE_LIMIT, TRAJ_GAIN, KEY_GAIN = 0.15, 0.10, 0.05, 1.8, 2.5
 #: Largest joint step where a partial stroke starts or ends, over the clip's median step, of
-#: guided clips: issue 12's bound (measured 1.85 here; on 64 windows at 50 steps 3.34, one
-#: clip of 63 above 3, README). The networks alone jump more there (2.1 here, 4.5 on 64
-#: windows; real clips 6.0): not asserted, in the README.
+#: guided clips: issue 12's bound (measured 2.08 here; on 64 windows at 50 steps 2.52, every
+#: clip below 3; the models shipped before had one clip of 63 at 3.34, README). The networks
+#: alone jump more there (2.36 here, 4.4 on 64 windows; real clips 6.0): not asserted, in the
+#: README.
 EDGE_LIMIT = 3.0
 
 
