@@ -514,6 +514,14 @@ def _text_motion_metrics(evaluator, data, seed):
     return text_motion
 
 
+def _check_scale(name, value, hint=""):
+    """A guidance scale (``guidance``, ``control_guidance``, ``condition_scale``): a finite
+    number >= 0, else a ValueError naming it."""
+    if (isinstance(value, bool) or not isinstance(value, (int, float))
+            or not math.isfinite(value) or value < 0):
+        raise ValueError(f"{name} must be a finite number >= 0{hint}, got {value!r}")
+
+
 def evaluate(control, single_controlnet=None, windows=64, steps=50, guidance=2.5, seed=0,
              out=None, progress=True, data_root=None, body_constraints=True,
              control_guidance=1.0, guidance_variants=False, evaluator="default",
@@ -568,10 +576,7 @@ def evaluate(control, single_controlnet=None, windows=64, steps=50, guidance=2.5
     n = _check_windows(windows)
     if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps < 1:
         raise ValueError(f"steps must be an integer >= 1 (e.g. 50 DDIM steps), got {steps!r}")
-    if (isinstance(guidance, bool) or not isinstance(guidance, (int, float))
-            or not math.isfinite(guidance) or guidance < 0):
-        raise ValueError(f"guidance must be a finite number >= 0 (Sketch2Anim uses 7.5), got "
-                         f"{guidance!r}")
+    _check_scale("guidance", guidance, " (Sketch2Anim uses 7.5)")
     gens = {"keypose + trajectory": _load(control, "--control")}
     for flag, path in (("--single-controlnet", single_controlnet),
                        ("--double-controlnet", double_controlnet)):
@@ -585,14 +590,9 @@ def evaluate(control, single_controlnet=None, windows=64, steps=50, guidance=2.5
         raise TypeError(f"body_constraints must be True or False, got {body_constraints!r}")
     if not isinstance(foot_lock, (bool, np.bool_)):
         raise TypeError(f"foot_lock must be True or False, got {foot_lock!r}")
-    if (isinstance(control_guidance, bool) or not isinstance(control_guidance, (int, float))
-            or not math.isfinite(control_guidance) or control_guidance < 0):
-        raise ValueError(f"control_guidance must be a finite number >= 0, got "
-                         f"{control_guidance!r}")
-    if (isinstance(condition_scale, bool) or not isinstance(condition_scale, (int, float))
-            or not math.isfinite(condition_scale) or condition_scale < 0):
-        raise ValueError(f"condition_scale must be a finite number >= 0 (w_c of Eq. (14); 1 = "
-                         f"the networks as they are), got {condition_scale!r}")
+    _check_scale("control_guidance", control_guidance)
+    _check_scale("condition_scale", condition_scale,
+                 " (w_c of Eq. (14); 1 = the networks as they are)")
     kw = {"steps": int(steps), "seed": int(seed), "progress": progress,
           "body_constraints": bool(body_constraints), "foot_lock": bool(foot_lock),
           "frequencies": frequencies}
