@@ -80,14 +80,17 @@ bench: $(STAMP)
 # (every take but the held-out 002) on 2 cores: the text-motion evaluator (1000 steps, one
 # thread), the text-conditioned base denoiser (10000 steps), the trajectory ControlNet + keypose
 # adapter on the frozen base (12000 steps; 6000 gave 0.101 / 0.038 m instead of 0.081 / 0.033 m
-# networks-only trajectory / pose error, README) and the single-ControlNet ablation (12000 steps,
-# the adapter's budget, for Table 2), then the 2D encoders aligned to the 3D ones (align stage:
+# networks-only trajectory / pose error, README), continued twice by 3000 steps with the keypose
+# term of Eq. 9 weighted 10x (--lambda-key 10; each continuation a warm restart of the cosine:
+# networks-only pose error 0.032 -> 0.028 m, 2.8x -> 3.2x below text only, README), and the
+# single-ControlNet ablation (12000 steps, the adapter's budget before the keypose
+# continuations, for Table 2), then the 2D encoders aligned to the 3D ones (align stage:
 # 10000 steps of Eq. 13, then continued to 15000 on the same checkpoint, a warm restart of the
 # cosine, with the drawn trajectories' 2D error as an extra term, --lambda-tr-2d 8: networks-only
 # Average protocol 1.85x -> 2.07x text only, README) and the lift-and-control lifter.
-# Timed 2026-11-27 on the 2-core host on a fast day (runs/s32; the host varies up to 2x from day
-# to day): evaluator 4.3 min, base 8.4, control 34.0, single ControlNet 21.6 - issue 12's models
-# in 68 min - then align about 45-47 min (340-354 windows/s, measured alone over 1500 of its
+# Timed 2026-11-27/28 on the 2-core host on a fast day (runs/s32, runs/s34; the host varies up
+# to 2x from day to day): evaluator 4.3 min, base 8.4, control 34.0 + 16.7 for the two keypose
+# continuations, single ControlNet 21.6 - issue 12's models in 85 min - then align about 45-47 min (340-354 windows/s, measured alone over 1500 of its
 # first steps and its last 5000; that run was stopped at step 5962 to free the host and
 # resumed) and the lifter about 10 min: about 2 h in all.
 # Resumable: rerun after an interruption (Ctrl-C or `kill` writes a checkpoint).
@@ -95,8 +98,8 @@ bench: $(STAMP)
 # copies (set MOTION_EXPORT=runs/x to retrain beside the shipped models and compare).
 # MOTION_PRECISION=bf16 runs the forward passes in bfloat16 autocast (weights, optimiser and
 # checkpoints stay float32): 1.24x (base) / 1.36x (control) the float32 throughput on this
-# host (benchmarks/bench_motion.py). The shipped files were trained in fp32; a bf16 retrain
-# scores within noise of them (README). Use MOTION_PRECISION=fp32 on a CPU without native
+# host (benchmarks/bench_motion.py). The files shipped before 2026-11-27 were trained in fp32;
+# the bf16 retrain shipped since scores within noise of them (README). Use MOTION_PRECISION=fp32 on a CPU without native
 # bfloat16 (no AVX512-BF16 / AMX), where bf16 is emulated and slower.
 MOTION_RUNS      ?= runs/motion
 MOTION_EXPORT    ?= data/motion
@@ -112,6 +115,10 @@ motion-evaluator: $(STAMP)
 motion-model: $(STAMP) motion-evaluator
 	$(MOTION_TRAIN) --stage base --steps 10000 --out $(MOTION_RUNS)/base.pt
 	$(MOTION_TRAIN) --stage control --steps 12000 --base-ckpt $(MOTION_RUNS)/base.pt \
+		--out $(MOTION_RUNS)/control.pt
+	$(MOTION_TRAIN) --stage control --steps 15000 --lambda-key 10 --base-ckpt $(MOTION_RUNS)/base.pt \
+		--out $(MOTION_RUNS)/control.pt
+	$(MOTION_TRAIN) --stage control --steps 18000 --lambda-key 10 --base-ckpt $(MOTION_RUNS)/base.pt \
 		--out $(MOTION_RUNS)/control.pt --export $(MOTION_EXPORT)/sketch2anim_control.pt
 	$(MOTION_TRAIN) --stage control --single-controlnet --steps 12000 \
 		--base-ckpt $(MOTION_RUNS)/base.pt --out $(MOTION_RUNS)/single_controlnet.pt \

@@ -770,8 +770,9 @@ def train(**kwargs):
 
     Returns
     -------
-    dict: ``path``, ``step``, ``loss`` (last step), ``seconds`` (this call's training
-    time), ``n_params``, ``export`` (Path or None).
+    dict: ``path``, ``step``, ``trained`` (steps this call ran; 0 when the checkpoint had
+    ``steps`` already), ``loss`` (last step; the checkpoint's when nothing was trained),
+    ``seconds`` (this call's training time), ``n_params``, ``export`` (Path or None).
     """
     from tqdm.auto import tqdm
 
@@ -854,7 +855,9 @@ def train(**kwargs):
             "n_windows": N, "attribution": BANDAI_NAMCO_ATTRIBUTION})
 
     bar = tqdm(total=cfg.steps, initial=step, disable=not cfg.progress, desc="train evaluator")
-    loss_v, tic = float("nan"), time.perf_counter()
+    loss_v, tic, first_step = float("nan"), time.perf_counter(), step
+    if resume is not None:
+        loss_v = float(resume.get("loss", float("nan")))
     try:
         while step < cfg.steps:
             for group in opt.param_groups:
@@ -894,8 +897,8 @@ def train(**kwargs):
     if not out.is_file():                       # nothing trained and nothing to resume
         checkpoint(loss_v)
     exported = export_weights(out, cfg.export) if cfg.export else None
-    return {"path": out, "step": step, "loss": loss_v, "seconds": seconds,
-            "n_params": n_params, "export": exported}
+    return {"path": out, "step": step, "trained": step - first_step, "loss": loss_v,
+            "seconds": seconds, "n_params": n_params, "export": exported}
 
 
 # ----------------------------------------------------------------------------- sanity check
@@ -1035,7 +1038,9 @@ def main(argv=None):
 
     stop_like_ctrl_c()                  # `kill PID` / Ctrl-C: checkpoint, then resume later
     res = train(**{k: v for k, v in args.items() if v is not None})
-    print(f"evaluator: step {res['step']}, loss {res['loss']:.4f}, {res['seconds']:.0f} s, "
+    took = (f"{res['seconds']:.0f} s" if res["trained"] else
+            "nothing left to train (the checkpoint had the steps asked for)")
+    print(f"evaluator: step {res['step']}, loss {res['loss']:.4f}, {took}, "
           f"{res['n_params']:,} parameters -> {res['path']}")
     if res["export"] is not None:
         print(f"inference weights (fp16, {res['export'].stat().st_size / 2**20:.1f} MiB) -> "

@@ -547,8 +547,10 @@ def train(**kwargs):
 
     Returns
     -------
-    dict: ``path`` of the checkpoint, ``step``, ``loss`` (last step's total loss),
-    ``windows_per_s`` (training throughput over all ranks, excluding the first step),
+    dict: ``path`` of the checkpoint, ``step``, ``trained`` (optimiser steps this call ran:
+    0 when the checkpoint at ``out`` already had ``steps``), ``loss`` (last step's total
+    loss; the checkpoint's when nothing was trained), ``windows_per_s`` (training throughput
+    over all ranks, excluding the first step; NaN when nothing was trained),
     ``n_params`` / ``n_trainable``, ``param_digests`` (per rank).
     """
     import torch.distributed as dist
@@ -720,7 +722,7 @@ def train(**kwargs):
 
     bar = tqdm(total=cfg.steps, initial=step, disable=not (cfg.progress and rank == 0),
                desc=f"train {cfg.stage}")
-    loss_v, digests, t_start, n_timed = float("nan"), None, None, 0
+    loss_v, digests, t_start, n_timed, first_step = float("nan"), None, None, 0, step
     try:
         while step < cfg.steps:
             for group in opt.param_groups:
@@ -813,11 +815,14 @@ def train(**kwargs):
     bar.close()
     if digests is None:                # nothing left to train: report the loaded state
         digests = [resume.get("param_digests", [None])[0]] if resume else None
+        if resume is not None:
+            loss_v = float(resume.get("loss", float("nan")))
     elapsed = time.perf_counter() - t_start if t_start is not None else 0.0
     wps = n_timed * B * world / elapsed if n_timed and elapsed > 0 else float("nan")
     if ddp:
         dist.barrier()
-    return {"path": out, "step": step, "loss": loss_v, "windows_per_s": wps,
+    return {"path": out, "step": step, "trained": step - first_step, "loss": loss_v,
+            "windows_per_s": wps,
             "n_params": count_parameters(model),
             "n_trainable": count_parameters(model, trainable_only=True),
             "param_digests": digests, "rank": rank, "world_size": world}
@@ -862,8 +867,10 @@ def main(argv=None):
     kwargs = {k: v for k, v in args.items() if v is not None}
     res = train(**kwargs)
     if res["rank"] == 0:
+        speed = (f"{res['windows_per_s']:.1f} windows/s" if res["trained"] else
+                 "nothing left to train (the checkpoint had the steps asked for)")
         print(f"stage {kwargs.get('stage', 'base')}: step {res['step']}, loss "
-              f"{res['loss']:.4f}, {res['windows_per_s']:.1f} windows/s, "
+              f"{res['loss']:.4f}, {speed}, "
               f"{res['n_trainable']:,} trainable of {res['n_params']:,} parameters -> "
               f"{res['path']}")
         if export:

@@ -258,7 +258,9 @@ def test_resumed_training_equals_one_run(real_data, tmp_path):
     one = train(out=str(tmp_path / "one.pt"), steps=4, **SMOKE)
     train(out=str(tmp_path / "two.pt"), steps=2, **SMOKE)
     two = train(out=str(tmp_path / "two.pt"), steps=4, **SMOKE)               # resumes
-    assert one["step"] == two["step"] == 4
+    assert one["step"] == two["step"] == 4 and two["trained"] == 2
+    again = train(out=str(tmp_path / "two.pt"), steps=4, **SMOKE)             # nothing left
+    assert again["trained"] == 0 and again["loss"] == two["loss"]             # not NaN
     a = torch.load(one["path"], weights_only=True)["model"]
     b = torch.load(two["path"], weights_only=True)["model"]
     for k in a:

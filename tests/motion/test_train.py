@@ -213,7 +213,9 @@ def test_resume_continues_from_saved_step_and_matches_one_run(base_run, tmp_path
     whole = train(stage="base", out=str(tmp_path / "whole.pt"), steps=4, **SMOKE)
     assert res["param_digests"] == whole["param_digests"]               # bit-identical
     again = train(stage="base", out=str(split), steps=4, **SMOKE)       # nothing left to do
-    assert again["step"] == 4
+    assert again["step"] == 4 and again["trained"] == 0 and res["trained"] == 2
+    assert again["loss"] == load_checkpoint(split)["loss"] == res["loss"]   # not NaN
+    assert again["param_digests"] == res["param_digests"]
     with pytest.raises(ValueError, match="holds a 'base' checkpoint"):
         train(stage="control", base_ckpt=base_run["path"], out=str(split), steps=5, **SMOKE)
 
