@@ -90,17 +90,17 @@ bench: $(STAMP)
 # Average protocol 1.85x -> 2.07x text only, README) and the lift-and-control lifter.
 # Timed 2026-11-27/28 on the 2-core host on a fast day (runs/s32, runs/s34; the host varies up
 # to 2x from day to day): evaluator 4.3 min, base 8.4, control 34.0 + 16.7 for the two keypose
-# continuations, single ControlNet 21.6 - issue 12's models in 85 min - then align about 45-47 min (340-354 windows/s, measured alone over 1500 of its
-# first steps and its last 5000; that run was stopped at step 5962 to free the host and
-# resumed) and the lifter about 10 min: about 2 h in all.
+# continuations, single ControlNet 21.6 - issue 12's models in 85 min - then align 45-47 min
+# (330-354 windows/s) and the lifter about 10 min: about 2 h 15 min in all.
 # Resumable: rerun after an interruption (Ctrl-C or `kill` writes a checkpoint).
 # Full-precision checkpoints stay in $(MOTION_RUNS); $(MOTION_EXPORT) gets the fp16 inference
 # copies (set MOTION_EXPORT=runs/x to retrain beside the shipped models and compare).
 # MOTION_PRECISION=bf16 runs the forward passes in bfloat16 autocast (weights, optimiser and
 # checkpoints stay float32): 1.24x (base) / 1.36x (control) the float32 throughput on this
 # host (benchmarks/bench_motion.py). The files shipped before 2026-11-27 were trained in fp32;
-# the bf16 retrain shipped since scores within noise of them (README). Use MOTION_PRECISION=fp32 on a CPU without native
-# bfloat16 (no AVX512-BF16 / AMX), where bf16 is emulated and slower.
+# the bf16 retrain shipped since scores within noise of them (README). Use
+# MOTION_PRECISION=fp32 on a CPU without native bfloat16 (no AVX512-BF16 / AMX), where bf16
+# is emulated and slower.
 MOTION_RUNS      ?= runs/motion
 MOTION_EXPORT    ?= data/motion
 MOTION_PRECISION ?= bf16

@@ -567,3 +567,15 @@ def test_recon_loss_weights_low_noise_levels_up_to_the_cap():
         TrainConfig(snr_cap=0.5)
     with pytest.raises(ValueError, match="snr_cap"):
         TrainConfig(snr_cap=5.0, prediction="epsilon")
+
+
+def test_cli_says_when_a_rerun_has_nothing_left_to_train(base_run, tmp_path, capsys):
+    """`make motion-model` reruns every stage; a finished one must not print `loss nan`."""
+    from physlab.motion.train import main
+
+    done = tmp_path / "done.pt"
+    save_checkpoint(done, load_checkpoint(base_run["path"]))               # step 2
+    res = main(["--stage", "base", "--out", str(done), "--steps", "2", "--smoke",
+                "--no-progress"])
+    out = capsys.readouterr().out
+    assert res["trained"] == 0 and "nothing left to train" in out and "nan" not in out, out
