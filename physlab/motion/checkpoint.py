@@ -22,8 +22,8 @@ from .diffusion import NoiseScheduler
 from .features import FeatureStats
 from .model import ControlledDenoiser, DenoiserConfig, MotionDenoiser
 
-__all__ = ["CHECKPOINT_KIND", "CHECKPOINT_VERSION", "save_checkpoint", "load_checkpoint",
-           "load_model", "export_weights"]
+__all__ = ["CHECKPOINT_KIND", "CHECKPOINT_VERSION", "NOTHING_LEFT_TO_TRAIN", "save_checkpoint",
+           "load_checkpoint", "load_model", "export_weights"]
 
 #: Identifies a physlab motion checkpoint (the name of the module that first wrote them).
 CHECKPOINT_KIND = "physlab.motion.train"
@@ -31,6 +31,9 @@ CHECKPOINT_KIND = "physlab.motion.train"
 #: dicts only — numpy arrays are stored as tagged tensors / string lists (:func:`_to_safe`).
 #: 1 (before 2026-11): a general pickle, which can run code when loaded; refused.
 CHECKPOINT_VERSION = 2
+#: What the training CLIs print instead of a speed when a rerun (``make motion-model`` reruns
+#: every stage) finds its checkpoint already at the steps asked for.
+NOTHING_LEFT_TO_TRAIN = "nothing left to train (the checkpoint had the steps asked for)"
 
 _NDARRAY, _STRARRAY = "__ndarray__", "__str_ndarray__"
 

@@ -65,8 +65,8 @@ import torch
 import torch.nn as nn
 import torch.nn.functional as F
 
-from .checkpoint import (CHECKPOINT_KIND, CHECKPOINT_VERSION, export_weights, load_checkpoint,
-                         save_checkpoint)
+from .checkpoint import (CHECKPOINT_KIND, CHECKPOINT_VERSION, NOTHING_LEFT_TO_TRAIN,
+                         export_weights, load_checkpoint, save_checkpoint)
 from .dataset import (MIRROR_PERMUTATION, mirror_joints, mirror_text,  # noqa: F401
                       BANDAI_NAMCO_ATTRIBUTION, TEST_TAKES, load_clips, make_windows,
                       read_labels, split_by_take)
@@ -855,9 +855,8 @@ def train(**kwargs):
             "n_windows": N, "attribution": BANDAI_NAMCO_ATTRIBUTION})
 
     bar = tqdm(total=cfg.steps, initial=step, disable=not cfg.progress, desc="train evaluator")
-    loss_v, tic, first_step = float("nan"), time.perf_counter(), step
-    if resume is not None:
-        loss_v = float(resume.get("loss", float("nan")))
+    loss_v = float(resume.get("loss", float("nan"))) if resume is not None else float("nan")
+    tic, first_step = time.perf_counter(), step
     try:
         while step < cfg.steps:
             for group in opt.param_groups:
@@ -1038,8 +1037,7 @@ def main(argv=None):
 
     stop_like_ctrl_c()                  # `kill PID` / Ctrl-C: checkpoint, then resume later
     res = train(**{k: v for k, v in args.items() if v is not None})
-    took = (f"{res['seconds']:.0f} s" if res["trained"] else
-            "nothing left to train (the checkpoint had the steps asked for)")
+    took = f"{res['seconds']:.0f} s" if res["trained"] else NOTHING_LEFT_TO_TRAIN
     print(f"evaluator: step {res['step']}, loss {res['loss']:.4f}, {took}, "
           f"{res['n_params']:,} parameters -> {res['path']}")
     if res["export"] is not None:

@@ -107,8 +107,8 @@ from .model import (
     count_parameters,
 )
 from .skeleton import JOINT_NAMES
-from .checkpoint import (CHECKPOINT_KIND, CHECKPOINT_VERSION, export_weights,  # noqa: F401
-                         load_checkpoint, load_model, save_checkpoint)
+from .checkpoint import (CHECKPOINT_KIND, CHECKPOINT_VERSION, NOTHING_LEFT_TO_TRAIN,  # noqa: F401
+                         export_weights, load_checkpoint, load_model, save_checkpoint)
 from .align import alignment_losses, camera_projections, sketch_batch
 from .guidance import control_losses, projected_trajectory_loss  # noqa: F401 - API
 from .text import hash_encoder  # noqa: F401 - part of this module's API
@@ -722,7 +722,8 @@ def train(**kwargs):
 
     bar = tqdm(total=cfg.steps, initial=step, disable=not (cfg.progress and rank == 0),
                desc=f"train {cfg.stage}")
-    loss_v, digests, t_start, n_timed, first_step = float("nan"), None, None, 0, step
+    loss_v = float(resume.get("loss", float("nan"))) if resume is not None else float("nan")
+    digests, t_start, n_timed, first_step = None, None, 0, step
     try:
         while step < cfg.steps:
             for group in opt.param_groups:
@@ -815,8 +816,6 @@ def train(**kwargs):
     bar.close()
     if digests is None:                # nothing left to train: report the loaded state
         digests = [resume.get("param_digests", [None])[0]] if resume else None
-        if resume is not None:
-            loss_v = float(resume.get("loss", float("nan")))
     elapsed = time.perf_counter() - t_start if t_start is not None else 0.0
     wps = n_timed * B * world / elapsed if n_timed and elapsed > 0 else float("nan")
     if ddp:
@@ -868,7 +867,7 @@ def main(argv=None):
     res = train(**kwargs)
     if res["rank"] == 0:
         speed = (f"{res['windows_per_s']:.1f} windows/s" if res["trained"] else
-                 "nothing left to train (the checkpoint had the steps asked for)")
+                 NOTHING_LEFT_TO_TRAIN)
         print(f"stage {kwargs.get('stage', 'base')}: step {res['step']}, loss "
               f"{res['loss']:.4f}, {speed}, "
               f"{res['n_trainable']:,} trainable of {res['n_params']:,} parameters -> "
