@@ -142,7 +142,13 @@ def _build(ckpt):
     sketch = any(k.startswith("sketch_traj_encoder.") for k in ckpt["model"])
     return ControlledDenoiser(base, single_controlnet=ckpt["single_controlnet"],
                               double_controlnet=bool(ckpt.get("double_controlnet", False)),
-                              sketch_encoders=sketch)
+                              sketch_encoders=sketch, control_head=has_control_head(ckpt))
+
+
+def has_control_head(ckpt):
+    """Whether a checkpoint's weights hold a control head (``ControlledDenoiser``'s
+    ``control_head``, ``train --control-head``)."""
+    return any(k.startswith("control_head.") for k in ckpt["model"])
 
 
 def load_model(path_or_ckpt):

@@ -487,7 +487,7 @@ class MotionDenoiser(nn.Module):
             v = v + mask * (torch.einsum("st,btd->bsd", P.to(v.dtype), v) - v)
         return v
 
-    def forward(self, x_t, t, text_emb, drop_text=None, residuals=None):
+    def forward(self, x_t, t, text_emb, drop_text=None, residuals=None, out_extra=None):
         """Predicted noise.
 
         Parameters
@@ -495,7 +495,9 @@ class MotionDenoiser(nn.Module):
         x_t : (B, T, D) noisy normalised features; t : (B,) int64 timesteps;
         text_emb : (B, text_dim) action embeddings a;
         drop_text : None or (B,) bool, True -> unconditional (null text), for CFG;
-        residuals : None or list of n_layers tensors (B, 1+T, C) added after each block.
+        residuals : None or list of n_layers tensors (B, 1+T, C) added after each block;
+        out_extra : None or (B, T, D) added to the output after the skip connection, unscaled
+            (the control head of :class:`ControlledDenoiser`).
 
         Returns
         -------
@@ -517,6 +519,8 @@ class MotionDenoiser(nn.Module):
                        + self.out_scale[t].to(out.dtype)[:, None, None] * out)  # c_skip, c_out
             m = self.skip_mask.to(out.dtype)
             out = m * skipped + (1 - m) * out
+        if out_extra is not None:
+            out = out + out_extra
         return self.smooth(out)
 
 
@@ -772,11 +776,14 @@ class TrajectoryControlNet(nn.Module):
         """``frames`` (B, N, F) per-frame condition -> list of residuals (B, 1+T, C)."""
         return self.from_embedding(x_t, t, text_emb, self.cond_encoder(frames), drop_text)
 
-    def from_embedding(self, x_t, t, text_emb, e, drop_text=None):
+    def from_embedding(self, x_t, t, text_emb, e, drop_text=None, with_hidden=False):
         """Residuals from a condition embedding ``e`` (B, T, C) (``E_tr(T)`` or, aligned with
-        it, ``E^2D_tr`` of a drawing)."""
+        it, ``E^2D_tr`` of a drawing); ``with_hidden``: ``(residuals, last block output
+        (B, 1+T, C))``, the input of :class:`ControlledDenoiser`'s control head."""
         h = self.encoder.tokens(x_t, t, text_emb, drop_text, motion_extra=e)  # Eq. (1) z'_t
-        return [z(o) for z, o in zip(self.zero, self.encoder.run_blocks(h))]
+        outs = self.encoder.run_blocks(h)
+        res = [z(o) for z, o in zip(self.zero, outs)]
+        return (res, outs[-1]) if with_hidden else res
 
 
 class KeyposeAdapter(nn.Module):
@@ -800,13 +807,15 @@ class KeyposeAdapter(nn.Module):
                                    residuals, drop_text, keypose_mask)
 
     def from_embedding(self, x_t, t, text_emb, k, residuals, drop_text=None,
-                       keypose_mask=None):
-        """Residuals ``r'`` from a keypose embedding ``k`` (B, C) (``E_k(K)`` or ``E^2D_k``)."""
+                       keypose_mask=None, with_hidden=False):
+        """Residuals ``r'`` from a keypose embedding ``k`` (B, C) (``E_k(K)`` or ``E^2D_k``);
+        ``with_hidden`` as for :meth:`TrajectoryControlNet.from_embedding`."""
         if keypose_mask is not None:                                       # no keypose: a' = a
             k = k * keypose_mask.to(k.dtype)[:, None]
         h = self.encoder.tokens(x_t, t, text_emb, drop_text, cond_extra=k)  # Eq. (2) a'
         outs = self.encoder.run_blocks(h, residuals)                        # Eq. (3)
-        return [z(o) for z, o in zip(self.zero, outs)]
+        res = [z(o) for z, o in zip(self.zero, outs)]
+        return (res, outs[-1]) if with_hidden else res
 
 
 class ControlledDenoiser(nn.Module):
@@ -824,6 +833,14 @@ class ControlledDenoiser(nn.Module):
         zero layers) runs beside the trajectory ControlNet instead of on its residuals, and
         the two residual lists are added, ``r + r'``, before they enter the base.
     traj_encoder, keypose_encoder : optional replacements of ``E_tr`` / ``E_k``.
+    control_head : bool, also add ``H(h_L)`` to the base's output *after* its skip connection
+        (``self.control_head``: LayerNorm + a zero-initialised linear layer on the last block
+        output ``h_L`` of the branch that feeds the base — the adapter, or the ControlNet of
+        the single-ControlNet ablation; with the double ControlNet, the sum of both). Not in
+        the paper: on a base with a skip connection (``config.skip``) the residuals reach x̂₀
+        only through ``√(1 − ᾱ_t) F``, so near t = 0 the branches can hardly move it; the head
+        acts on x̂₀ unscaled. Zero at initialisation, so the controlled model still starts
+        equal to the base.
     sketch_encoders : bool, also build the 2D encoders ``E^2D_tr``
         (:func:`sketch_trajectory_encoder`) and ``E^2D_k`` (:class:`SketchKeyposeEncoder`)
         of Sec. 5 (attributes ``sketch_traj_encoder``, ``sketch_keypose_encoder``; trained by
@@ -833,7 +850,8 @@ class ControlledDenoiser(nn.Module):
     """
 
     def __init__(self, base: MotionDenoiser, single_controlnet=False, traj_encoder=None,
-                 keypose_encoder=None, sketch_encoders=False, double_controlnet=False):
+                 keypose_encoder=None, sketch_encoders=False, double_controlnet=False,
+                 control_head=False):
         super().__init__()
         if single_controlnet and double_controlnet:
             raise ValueError("single_controlnet and double_controlnet are two different Table 2 "
@@ -863,6 +881,11 @@ class ControlledDenoiser(nn.Module):
                 for z in self.controlnet.zero:
                     z.weight.normal_(0.0, CONTROLNET_INIT_STD / math.sqrt(z.in_features),
                                      generator=g)
+        self.control_head = None
+        if control_head:
+            self.control_head = nn.Sequential(
+                nn.LayerNorm(self.config.d_model),
+                _zero_linear(self.config.d_model, self.config.feature_dim))
         self.base.eval()
         self.sketch_traj_encoder = self.sketch_keypose_encoder = None
         if sketch_encoders:
@@ -927,17 +950,31 @@ class ControlledDenoiser(nn.Module):
         check_condition(cond, x_t.shape[0], self.config.n_joint_frames)
         traj, mask = cond["trajectory"], cond["traj_mask"]
         km = cond.get("keypose_mask")
+        head = self.control_head is not None
         if self.single_controlnet:
             frames = unified_frames(traj, mask, cond["keypose"], cond["key_frame"], km)
-            res = self.controlnet(x_t, t, text_emb, frames, drop_text)
+            res = self.controlnet.from_embedding(x_t, t, text_emb,
+                                                 self.controlnet.cond_encoder(frames),
+                                                 drop_text, with_hidden=head)
         else:
             e_tr, e_k = self.condition_embeddings(cond)
-            r = self.controlnet.from_embedding(x_t, t, text_emb, e_tr, drop_text)
+            r = self.controlnet.from_embedding(x_t, t, text_emb, e_tr, drop_text,
+                                               with_hidden=head)
             if self.double_controlnet:                     # two parallel ControlNets: r + r'
                 rk = self.adapter.from_embedding(x_t, t, text_emb, e_k, None, drop_text,
-                                                 keypose_mask=km)
-                res = [u + v for u, v in zip(r, rk)]
+                                                 keypose_mask=km, with_hidden=head)
+                if head:
+                    (r, h_r), (rk, h_k) = r, rk
+                    res = ([u + v for u, v in zip(r, rk)], h_r + h_k)
+                else:
+                    res = [u + v for u, v in zip(r, rk)]
             else:
-                res = self.adapter.from_embedding(x_t, t, text_emb, e_k, r, drop_text,
-                                                  keypose_mask=km)          # r'
-        return self.base(x_t, t, text_emb, drop_text, residuals=res)        # Eq. (4)
+                res = self.adapter.from_embedding(x_t, t, text_emb, e_k,
+                                                  r[0] if head else r, drop_text,
+                                                  keypose_mask=km, with_hidden=head)  # r'
+        extra = None
+        if head:
+            res, hidden = res
+            extra = self.control_head(hidden[:, 1:])                       # (B, T, D)
+        return self.base(x_t, t, text_emb, drop_text, residuals=res,
+                         out_extra=extra)                                   # Eq. (4)

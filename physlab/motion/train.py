@@ -108,7 +108,8 @@ from .model import (
 )
 from .skeleton import JOINT_NAMES
 from .checkpoint import (CHECKPOINT_KIND, CHECKPOINT_VERSION, NOTHING_LEFT_TO_TRAIN,  # noqa: F401
-                         export_weights, load_checkpoint, load_model, save_checkpoint)
+                         export_weights, has_control_head, load_checkpoint, load_model,
+                         save_checkpoint)
 from .align import alignment_losses, camera_projections, sketch_batch
 from .guidance import control_losses, projected_trajectory_loss  # noqa: F401 - API
 from .text import hash_encoder  # noqa: F401 - part of this module's API
@@ -189,6 +190,9 @@ class TrainConfig:
     single_controlnet: bool = False  # Table 2 ablation: one ControlNet for both conditions
     double_controlnet: bool = False  # Table 2 ablation: keypose ControlNet beside the
                                     # trajectory one (residuals added), not an adapter on it
+    control_head: bool = False      # control stage: a zero-initialised head on the adapter's
+                                    # last block added to x̂₀ after the base's skip connection
+                                    # (ControlledDenoiser, control_head); not in the paper
     direct_2d: bool = False         # control stage on drawn (projected) conditions through 2D
                                     # encoders from the start: Table 1's direct 2D baseline
     lambda_match: float = 1.0       # align stage, Eq. (13): weight of L_match (Eq. 10; 0 = off)
@@ -295,6 +299,9 @@ class TrainConfig:
         if (self.single_controlnet or self.double_controlnet) and self.stage != "control":
             raise ValueError("--single-controlnet / --double-controlnet are variants of "
                              "--stage control")
+        if self.control_head and self.stage != "control":
+            raise ValueError("--control-head is a part of the ControlNet stage: use it with "
+                             "--stage control (align reads it from --base-ckpt)")
         if self.direct_2d and (self.stage != "control" or self.single_controlnet
                                or self.double_controlnet):
             raise ValueError("--direct-2d trains the ControlNet + adapter stage on drawn "
@@ -644,7 +651,8 @@ def train(**kwargs):
     if cfg.stage == "base":
         model = base
     elif cfg.stage == "align":
-        model = ControlledDenoiser(base, sketch_encoders=True)
+        model = ControlledDenoiser(base, sketch_encoders=True,
+                                   control_head=has_control_head(base_ckpt))
         weights = {k: v.float() for k, v in base_ckpt["model"].items()
                    if not k.startswith("sketch_")}
         missing, unexpected = model.load_state_dict(weights, strict=False)
@@ -657,7 +665,8 @@ def train(**kwargs):
         base.load_state_dict(base_ckpt["model"])
         model = ControlledDenoiser(base, single_controlnet=cfg.single_controlnet,
                                    double_controlnet=cfg.double_controlnet,
-                                   sketch_encoders=cfg.direct_2d)
+                                   sketch_encoders=cfg.direct_2d,
+                                   control_head=cfg.control_head)
     params = [p for p in model.parameters() if p.requires_grad]
     opt = torch.optim.AdamW(params, lr=cfg.lr, weight_decay=cfg.weight_decay)
     step = 0
@@ -672,6 +681,9 @@ def train(**kwargs):
                                        != cfg.double_controlnet):
             raise ValueError(f"{out} was trained with double_controlnet="
                              f"{resume.get('double_controlnet', False)}; use another --out")
+        if cfg.stage == "control" and has_control_head(resume) != cfg.control_head:
+            raise ValueError(f"{out} was trained with control_head={has_control_head(resume)}; "
+                             f"use another --out")
         model.load_state_dict(resume["model"])
         opt.load_state_dict(resume["optimizer"])
         step = int(resume["step"])

@@ -24,7 +24,7 @@ TINY = {"d_model": 32, "n_heads": 2, "n_layers": 2, "ff": 64, "dropout": 0.0}
 def _inputs(B=3, seed=0, cfg=None):
     cfg = cfg or DenoiserConfig(**TINY)
     g = torch.Generator().manual_seed(seed)
-    N = cfg.n_frames + 1
+    N = cfg.n_joint_frames
     x = torch.randn(B, cfg.n_frames, cfg.feature_dim, generator=g)          # (B, T, D)
     t = torch.randint(0, cfg.max_timesteps, (B,), generator=g)
     a = torch.randn(B, cfg.text_dim, generator=g)
@@ -381,6 +381,49 @@ def test_skip_connection_is_the_linear_guess_plus_a_scaled_correction():
     torch.testing.assert_close(y[..., 3:], (s * x)[..., 3:])
     with pytest.raises(ValueError, match="skip_pelvis=False needs"):
         DenoiserConfig(skip=True, skip_pelvis=False)          # "relative" features
+
+
+def test_control_head_starts_at_zero_and_acts_on_x0_unscaled_after_the_skip():
+    """``ControlledDenoiser(control_head=True)``: zero at initialisation (the controlled model
+    equals the base, for every Table 2 variant); its output is added to x̂₀ after the skip
+    connection, not scaled by √(1 − ᾱ_t) as the residuals are — at t = 0 a residual moves x̂₀
+    by √(1 − ᾱ_0) of what it moves F, the head by all of it; and it learns from step one."""
+    from physlab.motion.diffusion import NoiseScheduler, SchedulerConfig
+
+    abar = NoiseScheduler(SchedulerConfig()).alphas_cumprod
+    cfg = DenoiserConfig.for_representation("absolute", d_model=32, n_heads=2, n_layers=2,
+                                            ff=64, skip=True, skip_pelvis=False)
+    torch.manual_seed(0)
+    base = MotionDenoiser(cfg).eval().set_schedule(abar)
+    x, t, a, cond = _inputs(B=2, cfg=cfg)
+    t = torch.tensor([0, 0])
+    ref = base(x, t, a)
+    for single, double in ((False, False), (True, False), (False, True)):
+        ctrl = ControlledDenoiser(base, single_controlnet=single, double_controlnet=double,
+                                  control_head=True).eval()
+        assert ctrl.control_head is not None
+        assert torch.equal(ctrl(x, t, a, cond), ref)
+        ctrl.train()
+        ctrl(x, t, a, cond).square().mean().backward()
+        assert float(ctrl.control_head[1].weight.grad.abs().max()) > 0
+    assert ControlledDenoiser(base).control_head is None
+    ctrl = ControlledDenoiser(base, control_head=True).eval()
+    c = torch.linspace(-1, 1, cfg.feature_dim)
+    with torch.no_grad():
+        ctrl.control_head[1].bias.copy_(c)                  # H(h) = c for every row
+        moved = ctrl(x, t, a, cond) - ref
+        torch.testing.assert_close(moved, base.smooth(c.expand_as(x).clone()))
+        ctrl.control_head[1].bias.zero_()
+        # the same shift through the base's head (what the residuals reach) is scaled
+        base.head.bias.add_(c)
+        through_f = base(x, t, a) - ref
+        base.head.bias.sub_(c)
+    scale = float((1 - abar[0]) ** 0.5)
+    skip_cols = torch.ones(cfg.feature_dim, dtype=torch.bool)
+    from physlab.motion.features import ABS_PELVIS
+    skip_cols[ABS_PELVIS] = False
+    torch.testing.assert_close(through_f[..., skip_cols], scale * moved[..., skip_cols])
+    assert scale < 0.1
 
 
 def test_controlnet_variant_names_models_and_checkpoints_alike():

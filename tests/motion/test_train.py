@@ -290,6 +290,24 @@ def test_control_smoke(base_run, tmp_path):
 
 
 
+def test_control_head_smoke_saves_reloads_aligns_and_guards_its_variant(base_run, tmp_path):
+    out = tmp_path / "head.pt"
+    res = train(stage="control", base_ckpt=str(base_run["path"]), out=str(out),
+                control_head=True, steps=1, **SMOKE)
+    assert res["step"] == 1 and np.isfinite(res["loss"])
+    model = load_model(out)["model"]
+    assert model.control_head is not None
+    assert load_model(base_run["path"])["model"] is not None
+    with pytest.raises(ValueError, match="control_head=True"):            # resume as another
+        train(stage="control", base_ckpt=str(base_run["path"]), out=str(out), steps=2,
+              **SMOKE)
+    aligned = train(stage="align", base_ckpt=str(out), out=str(tmp_path / "a.pt"), steps=1,
+                    **SMOKE)                                # the head comes with the generator
+    assert load_model(aligned["path"])["model"].control_head is not None
+    with pytest.raises(ValueError, match="--control-head is a part of the ControlNet stage"):
+        TrainConfig(stage="base", control_head=True)
+
+
 def test_double_controlnet_smoke_saves_reloads_and_guards_its_variant(base_run, tmp_path):
     out = tmp_path / "double.pt"
     res = train(stage="control", base_ckpt=str(base_run["path"]), out=str(out),
