@@ -950,31 +950,23 @@ class ControlledDenoiser(nn.Module):
         check_condition(cond, x_t.shape[0], self.config.n_joint_frames)
         traj, mask = cond["trajectory"], cond["traj_mask"]
         km = cond.get("keypose_mask")
-        head = self.control_head is not None
         if self.single_controlnet:
             frames = unified_frames(traj, mask, cond["keypose"], cond["key_frame"], km)
-            res = self.controlnet.from_embedding(x_t, t, text_emb,
-                                                 self.controlnet.cond_encoder(frames),
-                                                 drop_text, with_hidden=head)
+            res, hidden = self.controlnet.from_embedding(
+                x_t, t, text_emb, self.controlnet.cond_encoder(frames), drop_text,
+                with_hidden=True)
         else:
             e_tr, e_k = self.condition_embeddings(cond)
-            r = self.controlnet.from_embedding(x_t, t, text_emb, e_tr, drop_text,
-                                               with_hidden=head)
+            r, h_r = self.controlnet.from_embedding(x_t, t, text_emb, e_tr, drop_text,
+                                                    with_hidden=True)
             if self.double_controlnet:                     # two parallel ControlNets: r + r'
-                rk = self.adapter.from_embedding(x_t, t, text_emb, e_k, None, drop_text,
-                                                 keypose_mask=km, with_hidden=head)
-                if head:
-                    (r, h_r), (rk, h_k) = r, rk
-                    res = ([u + v for u, v in zip(r, rk)], h_r + h_k)
-                else:
-                    res = [u + v for u, v in zip(r, rk)]
+                rk, h_k = self.adapter.from_embedding(x_t, t, text_emb, e_k, None, drop_text,
+                                                      keypose_mask=km, with_hidden=True)
+                res, hidden = [u + v for u, v in zip(r, rk)], h_r + h_k
             else:
-                res = self.adapter.from_embedding(x_t, t, text_emb, e_k,
-                                                  r[0] if head else r, drop_text,
-                                                  keypose_mask=km, with_hidden=head)  # r'
-        extra = None
-        if head:
-            res, hidden = res
-            extra = self.control_head(hidden[:, 1:])                       # (B, T, D)
+                res, hidden = self.adapter.from_embedding(x_t, t, text_emb, e_k, r, drop_text,
+                                                          keypose_mask=km,
+                                                          with_hidden=True)  # r'
+        extra = None if self.control_head is None else self.control_head(hidden[:, 1:])
         return self.base(x_t, t, text_emb, drop_text, residuals=res,
                          out_extra=extra)                                   # Eq. (4)
