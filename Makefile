@@ -95,15 +95,16 @@ bench: $(STAMP)
 # Resumable: rerun after an interruption (Ctrl-C or `kill` writes a checkpoint).
 # Full-precision checkpoints stay in $(MOTION_RUNS); $(MOTION_EXPORT) gets the fp16 inference
 # copies (set MOTION_EXPORT=runs/x to retrain beside the shipped models and compare).
-# MOTION_PRECISION=bf16 runs the forward passes in bfloat16 autocast (weights, optimiser and
-# checkpoints stay float32): 1.24x (base) / 1.36x (control) the float32 throughput on this
-# host (benchmarks/bench_motion.py). The files shipped before 2026-11-27 were trained in fp32;
-# the bf16 retrain shipped since scores within noise of them (README). Use
-# MOTION_PRECISION=fp32 on a CPU without native bfloat16 (no AVX512-BF16 / AMX), where bf16
-# is emulated and slower.
+# MOTION_PRECISION=auto (default) runs the forward passes in bfloat16 autocast (weights,
+# optimiser and checkpoints stay float32) where the CPU has native bfloat16 (AVX512-BF16 or
+# AMX): 1.24x (base) / 1.36x (control) the float32 throughput on such a host
+# (benchmarks/bench_motion.py); elsewhere fp32, because emulated bf16 is far slower (~15x
+# for the base stage on a 2-core AVX2 EPYC, 2026-11-28). MOTION_PRECISION=bf16 / fp32 force
+# one. The files shipped before 2026-11-27 were trained in fp32; the bf16 retrain shipped
+# since scores within noise of them (README).
 MOTION_RUNS      ?= runs/motion
 MOTION_EXPORT    ?= data/motion
-MOTION_PRECISION ?= bf16
+MOTION_PRECISION ?= auto
 MOTION_TRAIN := $(PY) -m physlab.motion.train --num-threads 2 --precision $(MOTION_PRECISION) \
 	--text-cache $(MOTION_RUNS)/text_cache.npz
 motion-evaluator: $(STAMP)

@@ -333,7 +333,7 @@ def test_bf16_precision_runs_every_stage_close_to_float32(base_run, tmp_path):
     loss moves by bfloat16 rounding only (same seed, same batch), and the weights, optimiser
     and checkpoint stay float32."""
     losses = {}
-    for prec in PRECISIONS:
+    for prec in ("fp32", "bf16"):
         res = train(stage="base", out=str(tmp_path / f"b_{prec}.pt"), steps=1, precision=prec,
                     **SMOKE)
         losses[prec] = res["loss"]
@@ -348,6 +348,23 @@ def test_bf16_precision_runs_every_stage_close_to_float32(base_run, tmp_path):
     assert np.isfinite(control["loss"]) and np.isfinite(align["loss"])
     with pytest.raises(ValueError, match="precision must be one of"):
         TrainConfig(stage="base", precision="fp16")
+
+
+def test_precision_auto_takes_bf16_only_on_a_cpu_with_native_bfloat16(monkeypatch):
+    """--precision auto resolves when the config is made, so the checkpoint records what ran:
+    bf16 where native_bf16() (oneDNN's AVX512-BF16 / AMX check), fp32 elsewhere."""
+    import physlab.motion.train as train_mod
+
+    assert isinstance(train_mod.native_bf16(), bool)
+    assert "auto" in PRECISIONS
+    for native, want in ((True, "bf16"), (False, "fp32")):
+        monkeypatch.setattr(train_mod, "native_bf16", lambda native=native: native)
+        cfg = TrainConfig(stage="base", precision="auto")
+        assert cfg.precision == want
+        assert TrainConfig(**dataclasses.asdict(cfg)).precision == want   # as saved, reloaded
+    monkeypatch.undo()
+    assert TrainConfig(stage="base", precision="auto").precision == (
+        "bf16" if train_mod.native_bf16() else "fp32")
 
 
 def test_align_smoke_trains_only_the_2d_encoders(base_run, tmp_path):
@@ -409,7 +426,7 @@ def _free_port():
 
 
 @pytest.mark.timeout(180)
-@pytest.mark.parametrize("precision", ["fp32", "bf16"])        # bf16: make motion-model's default
+@pytest.mark.parametrize("precision", ["fp32", "bf16"])   # bf16: make motion-model on bf16 CPUs
 def test_ddp_two_ranks_end_with_identical_parameters(real_data, tmp_path, precision):
     """torchrun with 2 gloo processes, 2 smoke steps; both ranks' parameter digests must be
     equal. Skipped (not failed) if gloo cannot set up its sockets on this machine."""
