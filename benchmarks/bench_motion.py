@@ -15,10 +15,12 @@ What is measured
    stage ``control`` (trajectory ControlNet + keypose adapter on the frozen base), with the
    default model size (``DenoiserConfig``) and batch, one process with ``--threads`` threads
    (2; ``torchrun`` with two 1-thread processes is not faster on this machine); both again
-   ``--repeats`` times with ``precision="bf16"`` (forward passes in bfloat16 autocast), the
-   median as a ratio to float32; interleaved with those, the same bf16 runs with
-   ``torch.nn.Dropout`` in place of physlab's cheaper :class:`~physlab.motion.model.Dropout`
-   (the reference), medians compared.
+   ``--repeats`` times with ``precision="auto"`` (bf16, forward passes in bfloat16 autocast,
+   where the CPU has native bfloat16, :func:`~physlab.motion.train.native_bf16`; else fp32),
+   and, interleaved with those, the same runs with ``torch.nn.Dropout`` in place of physlab's
+   cheaper :class:`~physlab.motion.model.Dropout` (the reference), medians compared. The bf16
+   rows are a ratio to float32; on a CPU without native bfloat16 they come from one run of
+   at most 3 steps per stage, since emulated bfloat16 is 10-30x slower.
    The weights are whatever these few steps give — sampling speed does not depend on them.
 2. **Sampling** with the shipped generator (``--checkpoint``, default
    :data:`~physlab.motion.sampling.DEFAULT_CHECKPOINT`; the trained weights matter, since
@@ -98,7 +100,7 @@ def main(argv=None):
     from physlab.datasets import external_data_dir
     from physlab.motion.evaluate import GUIDANCE_VARIANTS, GUIDED, UNGUIDED
     from physlab.motion.sampling import DEFAULT_CHECKPOINT, Generator
-    from physlab.motion.train import train
+    from physlab.motion.train import native_bf16, train
 
     if external_data_dir() is None:
         print("bench_motion: the Bandai-Namco clips (../shared/data) are needed for training; "
@@ -115,18 +117,27 @@ def main(argv=None):
         base = train(stage="base", out=str(d / "base.pt"), **common)
         control = train(stage="control", base_ckpt=str(base["path"]), out=str(d / "control.pt"),
                         **common)
+        native = native_bf16()
+        prec = "bf16" if native else "fp32"  # what --precision auto runs on this CPU
         bf16, dropout = None, {}          # bf16 runs; windows/s with physlab's / torch's dropout
         for r in range(1 if args.quick else args.repeats):
             for ref in (False, True):
                 with _torch_dropout() if ref else nullcontext():
                     runs = {"base": train(stage="base", out=str(d / f"b{r}{ref}.pt"),
-                                          precision="bf16", **common)}
+                                          precision=prec, **common)}
                     runs["control"] = train(stage="control", base_ckpt=str(base["path"]),
-                                            out=str(d / f"c{r}{ref}.pt"), precision="bf16",
+                                            out=str(d / f"c{r}{ref}.pt"), precision=prec,
                                             **common)
-                bf16 = bf16 or runs                        # the first run with physlab's
+                if native:
+                    bf16 = bf16 or runs                    # the first run with physlab's
                 for k, v in runs.items():
                     dropout.setdefault((k, ref), []).append(v["windows_per_s"])
+        if not native:                    # emulated bf16: one short run per stage
+            short = {**common, "steps": min(common["steps"], 3)}
+            bf16 = {"base": train(stage="base", out=str(d / "b_bf16.pt"), precision="bf16",
+                                  **short)}
+            bf16["control"] = train(stage="control", base_ckpt=str(base["path"]),
+                                    out=str(d / "c_bf16.pt"), precision="bf16", **short)
         dropout = {k: float(np.median(v)) for k, v in dropout.items()}
         sizes = {k: Path(r["path"]).stat().st_size / 2**20 for k, r in
                  (("base", base), ("control", control))}
@@ -184,13 +195,14 @@ def main(argv=None):
           f"{control['n_params']:,} ({control['n_trainable']:,})")
     print(f"training, base stage | {base['windows_per_s']:.0f} windows/s")
     print(f"training, control stage | {control['windows_per_s']:.0f} windows/s")
+    how = "native" if native else "emulated: no native bfloat16 on this CPU, one short run"
     for k, ref in (("base", base), ("control", control)):
-        wps = dropout[(k, False)]
-        print(f"training, {k} stage, --precision bf16 | {wps:.0f} windows/s "
+        wps = bf16[k]["windows_per_s"]
+        print(f"training, {k} stage, --precision bf16 ({how}) | {wps:.0f} windows/s "
               f"({wps / ref['windows_per_s']:.2f}x float32)")
     for k in ("base", "control"):
         ours, ref = dropout[(k, False)], dropout[(k, True)]
-        print(f"training, {k} stage, bf16, physlab Dropout / torch.nn.Dropout (median of "
+        print(f"training, {k} stage, {prec}, physlab Dropout / torch.nn.Dropout (median of "
               f"{1 if args.quick else args.repeats}) | {ours:.0f} / {ref:.0f} windows/s "
               f"({ours / ref:.2f}x)")
     print(f"sampling from | {Path(path).name}")
@@ -217,7 +229,8 @@ def main(argv=None):
     out.update(base=base, control=control, bf16=bf16, seconds_text=t_text,
                seconds_control=t_ctrl, seconds_guided=t_guided, seconds_variants=t_variants,
                seconds_reference=t_ref, seconds_sketch=t_sketch, peak_mib=peak,
-               checkpoint_mib=sizes, seconds_storyboard=t_board, dropout_windows_per_s=dropout)
+               checkpoint_mib=sizes, seconds_storyboard=t_board, dropout_windows_per_s=dropout,
+               auto_precision=prec)
     return out
 
 

@@ -56,7 +56,9 @@ def test_bench_motion_quick_runs(real_data, capsys):
     bench_motion = _load("bench_motion")
     out = bench_motion.main(["--quick", "--threads", "1", "--repeats", "1"])
     assert out["base"]["windows_per_s"] > 0 and out["control"]["windows_per_s"] > 0
+    assert set(out["bf16"]) == {"base", "control"}
     assert all(r["windows_per_s"] > 0 for r in out["bf16"].values())
+    assert out["auto_precision"] in ("fp32", "bf16")
     assert set(out["dropout_windows_per_s"]) == {(k, ref) for k in ("base", "control")
                                                  for ref in (False, True)}
     assert all(v > 0 for v in out["dropout_windows_per_s"].values())
