@@ -775,8 +775,9 @@ def text_adherence(control, contents=ADHERENCE_CONTENTS, seeds=4, steps=50, guid
             "quality": {"real": quality(real), "generated": quality(made)}}
 
 
-#: Noise levels of :func:`detail_kept` (None: pure noise, as in sampling).
-DETAIL_LEVELS = (20, 150, 300, 600, 900, None)
+#: Noise levels of :func:`detail_kept` (0: the clean clip, one network call — does the
+#: network hand back what it is given?; None: pure noise, as in sampling).
+DETAIL_LEVELS = (0, 20, 150, 300, 600, 900, None)
 
 
 def detail_kept(control, content="wave-right-hand", levels=DETAIL_LEVELS, windows=8,
@@ -787,7 +788,8 @@ def detail_kept(control, content="wave-right-hand", levels=DETAIL_LEVELS, window
     denoised back by DDIM with the action's text (all its clips when take 002 has none) (:meth:`Generator.denoise_from`), and
     ``statistic`` (a column of :func:`motion_statistics`) is compared with the real windows'.
     A well-fit denoiser keeps the statistic at low levels (the clip is still there) and a
-    text-only sample (None) should reach it too; a damped one loses it already at t = 20.
+    text-only sample (None) should reach it too; a damped one loses it already at t = 20, or
+    even at t = 0, where the clean clip is handed to the network (one DDIM step: its x̂₀).
 
     Returns dict: ``real`` (mean statistic of the chosen windows), ``levels`` {level or
     "noise": mean statistic after denoising}, ``content``, ``statistic``, ``windows``,
