@@ -130,6 +130,7 @@ __all__ = [
     "evaluate",
     "DETAIL_LEVELS",
     "detail_kept",
+    "follow_slope",
     "format_adherence",
     "format_detail",
     "format_table",
@@ -791,9 +792,15 @@ def detail_kept(control, content="wave-right-hand", levels=DETAIL_LEVELS, window
     text-only sample (None) should reach it too; a damped one loses it already at t = 20, or
     even at t = 0, where the clean clip is handed to the network (one DDIM step: its x̂₀).
 
+    Whether the network *reads* the clip, rather than writing the action's typical value over
+    it, shows in ``slopes``: the least-squares slope of the denoised windows' statistic on the
+    real windows' (:func:`follow_slope`): 1 = hands back each window's value, 0 = ignores it
+    (from pure noise it should be about 0).
+
     Returns dict: ``real`` (mean statistic of the chosen windows), ``levels`` {level or
-    "noise": mean statistic after denoising}, ``content``, ``statistic``, ``windows``,
-    ``held_out`` (False when take 002 has no clip of the action and all takes were used).
+    "noise": mean statistic after denoising}, ``slopes`` {same keys: :func:`follow_slope`},
+    ``content``, ``statistic``, ``windows``, ``held_out`` (False when take 002 has no clip of
+    the action and all takes were used).
     """
     from tqdm.auto import tqdm
 
@@ -812,15 +819,32 @@ def detail_kept(control, content="wave-right-hand", levels=DETAIL_LEVELS, window
     J = win.joints[rng.choice(len(win.joints), min(windows, len(win.joints)), replace=False)]
     col = STATISTICS.index(statistic)
     text = action_text(content)
-    out = {}
+    real = motion_statistics(J)[:, col]
+    out, slopes = {}, {}
     for level in tqdm(list(levels), desc="detail kept", disable=not progress):
         got = [gen.denoise_from(j, level, text, noise_seed=seed + i, steps=steps,
                                 guidance_scale=guidance) for i, j in enumerate(J)]
-        out["noise" if level is None else int(level)] = float(
-            motion_statistics(np.stack(got))[:, col].mean())
-    return {"real": float(motion_statistics(J)[:, col].mean()), "levels": out,
+        key = "noise" if level is None else int(level)
+        g = motion_statistics(np.stack(got))[:, col]
+        out[key], slopes[key] = float(g.mean()), follow_slope(real, g)
+    return {"real": float(real.mean()), "levels": out, "slopes": slopes,
             "content": content, "statistic": statistic, "windows": len(J),
             "held_out": bool(test)}
+
+
+def follow_slope(real, got):
+    """Least-squares slope of ``got`` on ``real`` (two (n,) arrays of a per-window statistic):
+    ``cov(real, got) / var(real)``. 1 when ``got`` follows ``real`` one to one (plus any
+    offset), 0 when it does not depend on it, 0.5 when it keeps half of each window's
+    deviation from the mean. NaN when ``real`` does not vary (fewer than 2 windows)."""
+    r, g = np.asarray(real, dtype=float), np.asarray(got, dtype=float)
+    if r.ndim != 1 or r.shape != g.shape:
+        raise ValueError(f"real and got must be 1-D arrays of one length, got shapes {r.shape} "
+                         f"and {g.shape}")
+    var = np.var(r)
+    if len(r) < 2 or not var > 1e-12 * max(1.0, float(np.mean(r ** 2))):
+        return float("nan")
+    return float(np.mean((r - r.mean()) * (g - g.mean())) / var)
 
 
 def format_detail(res):
@@ -830,10 +854,14 @@ def format_detail(res):
     vals = [res["real"], *res["levels"].values()]
     which = ("held-out windows" if res.get("held_out", True)
              else "windows (all takes: take 002 has none)")
-    return "\n".join([f"{res['statistic']} of {res['windows']} '{res['content']}' {which}, "
-                      f"denoised back (text only):", "",
-                      "| " + " | ".join(head) + " |", "|" + "---|" * len(head),
-                      "| " + " | ".join(f"{v:.4f}" for v in vals) + " |"])
+    lines = [f"{res['statistic']} of {res['windows']} '{res['content']}' {which}, "
+             f"denoised back (text only):", "",
+             "| | " + " | ".join(head) + " |", "|" + "---|" * (len(head) + 1),
+             "| mean | " + " | ".join(f"{v:.4f}" for v in vals) + " |"]
+    if "slopes" in res:                 # how much of each window's own value comes back
+        lines.append("| slope on real | 1 | " + " | ".join(
+            "—" if not np.isfinite(v) else f"{v:.2f}" for v in res["slopes"].values()) + " |")
+    return "\n".join(lines)
 
 
 def format_adherence(res):
@@ -1291,6 +1319,8 @@ def _parser():
     p.add_argument("--detail", default=None, metavar="CONTENT",
                    help="how much of CONTENT's real motion (e.g. wave-right-hand) the text-only "
                         "denoiser keeps from noise levels 20..900 and from pure noise")
+    p.add_argument("--detail-windows", type=int, default=8, metavar="N",
+                   help="windows --detail denoises back (default 8; more for a steadier slope)")
     p.add_argument("--detail-statistic", default="wrist_travel_m", choices=STATISTICS,
                    help="what --detail measures (default wrist_travel_m; forward_m for walks)")
     p.add_argument("--no-progress", action="store_true", help="no progress bars")
@@ -1379,6 +1409,7 @@ def main(argv=None):
     if args.detail is not None:
         print(format_detail(detail_kept(args.control, content=args.detail,
                                         statistic=args.detail_statistic,
+                                        windows=args.detail_windows,
                                         progress=not args.no_progress,
                                         data_root=args.data_root)))
         print()

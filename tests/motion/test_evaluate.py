@@ -11,6 +11,7 @@ import torch
 
 from physlab.motion.dataset import BANDAI_NAMCO_ATTRIBUTION, condition_from_window
 from physlab.motion.evaluate import (
+    follow_slope,
     COLUMNS,
     MIN_T_R,
     ROW_NAMES,
@@ -523,3 +524,19 @@ def test_evaluate_on_a_training_take_says_so(ckpts, capsys):
     assert "windows of take 001" in capsys.readouterr().out
     with pytest.raises(ValueError, match="--take"):
         main(["--control", str(ckpts["control"]), "--no-3d", "--take", "001"])
+
+
+def test_follow_slope_is_one_for_a_copy_zero_for_a_constant_and_the_kept_share_between():
+    """follow_slope (the --detail 'slope on real' row) is the least-squares slope, checked
+    against numpy's polyfit and the analytic cases."""
+    rng = np.random.default_rng(0)
+    real = rng.normal(1.0, 0.5, 12)
+    assert follow_slope(real, real + 3.0) == pytest.approx(1.0)            # copy plus offset
+    assert follow_slope(real, np.full(12, 0.2)) == pytest.approx(0.0, abs=1e-12)
+    assert follow_slope(real, 0.3 * real - 1.0) == pytest.approx(0.3)      # damped to 30 %
+    got = rng.normal(size=12)
+    assert follow_slope(real, got) == pytest.approx(np.polyfit(real, got, 1)[0])
+    assert np.isnan(follow_slope(np.ones(5), np.arange(5.0)))              # real does not vary
+    assert np.isnan(follow_slope([1.0], [2.0]))
+    with pytest.raises(ValueError, match="real and got"):
+        follow_slope(real, real[:5])

@@ -282,7 +282,9 @@ def test_detail_kept_reports_each_level(real_data):
     assert detail_kept(DEFAULT_CHECKPOINT, levels=(20,), **kw)["levels"][20] == \
         res["levels"][20]
     assert res["levels"][20] != res["levels"]["noise"]
-    assert "from noise" in format_detail(res)
+    assert set(res["slopes"]) == {20, "noise"}
+    assert all(np.isfinite(v) for v in res["slopes"].values())      # two windows: a slope
+    assert "from noise" in format_detail(res) and "slope on real" in format_detail(res)
     with pytest.raises(ValueError, match="statistic"):
         detail_kept(DEFAULT_CHECKPOINT, statistic="speed")
     with pytest.raises(ValueError, match="content"):
