@@ -848,7 +848,8 @@ def follow_slope(real, got):
 
 
 def format_detail(res):
-    """One-line table of :func:`detail_kept`."""
+    """Markdown table of :func:`detail_kept`: the mean statistic per level, and the slope on
+    the real windows' when the result has ``slopes``."""
     keys = list(res["levels"])
     head = ["real", *[f"from t = {k}" if k != "noise" else "from noise" for k in keys]]
     vals = [res["real"], *res["levels"].values()]
@@ -1318,7 +1319,8 @@ def _parser():
                    help="clips per action text in the adherence check (default 4)")
     p.add_argument("--detail", default=None, metavar="CONTENT",
                    help="how much of CONTENT's real motion (e.g. wave-right-hand) the text-only "
-                        "denoiser keeps from noise levels 20..900 and from pure noise")
+                        "denoiser keeps from noise levels 0..900 and from pure noise, and how "
+                        "closely it follows each window (slope on real)")
     p.add_argument("--detail-windows", type=int, default=8, metavar="N",
                    help="windows --detail denoises back (default 8; more for a steadier slope)")
     p.add_argument("--detail-statistic", default="wrist_travel_m", choices=STATISTICS,
