@@ -117,27 +117,26 @@ def main(argv=None):
         base = train(stage="base", out=str(d / "base.pt"), **common)
         control = train(stage="control", base_ckpt=str(base["path"]), out=str(d / "control.pt"),
                         **common)
+
+        def both_stages(tag, precision, **kw):    # a base run and a control run on `base`
+            return {"base": train(stage="base", out=str(d / f"b{tag}.pt"), precision=precision,
+                                  **kw),
+                    "control": train(stage="control", base_ckpt=str(base["path"]),
+                                     out=str(d / f"c{tag}.pt"), precision=precision, **kw)}
+
         native = native_bf16()
-        prec = "bf16" if native else "fp32"  # what --precision auto runs on this CPU
-        bf16, dropout = None, {}          # bf16 runs; windows/s with physlab's / torch's dropout
+        prec = "bf16" if native else "fp32"   # what --precision auto resolves to on this CPU
+        first, dropout = None, {}         # windows/s with physlab's / torch's dropout
         for r in range(1 if args.quick else args.repeats):
             for ref in (False, True):
                 with _torch_dropout() if ref else nullcontext():
-                    runs = {"base": train(stage="base", out=str(d / f"b{r}{ref}.pt"),
-                                          precision=prec, **common)}
-                    runs["control"] = train(stage="control", base_ckpt=str(base["path"]),
-                                            out=str(d / f"c{r}{ref}.pt"), precision=prec,
-                                            **common)
-                if native:
-                    bf16 = bf16 or runs                    # the first run with physlab's
+                    runs = both_stages(f"{r}{ref}", "auto", **common)
+                first = first or runs                      # the first run with physlab's
                 for k, v in runs.items():
                     dropout.setdefault((k, ref), []).append(v["windows_per_s"])
-        if not native:                    # emulated bf16: one short run per stage
-            short = {**common, "steps": min(common["steps"], 3)}
-            bf16 = {"base": train(stage="base", out=str(d / "b_bf16.pt"), precision="bf16",
-                                  **short)}
-            bf16["control"] = train(stage="control", base_ckpt=str(base["path"]),
-                                    out=str(d / "c_bf16.pt"), precision="bf16", **short)
+        # bf16 runs: the auto runs above where bf16 is native; else one short emulated run
+        bf16 = (first if native else
+                both_stages("_bf16", "bf16", **{**common, "steps": min(common["steps"], 3)}))
         dropout = {k: float(np.median(v)) for k, v in dropout.items()}
         sizes = {k: Path(r["path"]).stat().st_size / 2**20 for k, r in
                  (("base", base), ("control", control))}
@@ -197,7 +196,7 @@ def main(argv=None):
     print(f"training, control stage | {control['windows_per_s']:.0f} windows/s")
     how = "native" if native else "emulated: no native bfloat16 on this CPU, one short run"
     for k, ref in (("base", base), ("control", control)):
-        wps = bf16[k]["windows_per_s"]
+        wps = dropout[(k, False)] if native else bf16[k]["windows_per_s"]   # native: median
         print(f"training, {k} stage, --precision bf16 ({how}) | {wps:.0f} windows/s "
               f"({wps / ref['windows_per_s']:.2f}x float32)")
     for k in ("base", "control"):
