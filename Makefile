@@ -10,6 +10,8 @@ VENV       ?= .venv
 TORCH_SPEC ?= torch==2.13.0
 EXTRAS     ?= all
 PYTEST_ARGS ?=
+# pytest-xdist workers for the three test stages (0 = run in this process, one test at a time).
+TEST_WORKERS ?= 2
 LAB_ARGS   ?=
 
 BIN   := $(VENV)/bin
@@ -48,17 +50,18 @@ lab: $(STAMP)
 	$(BIN)/jupyter lab --notebook-dir=lessons $(if $(filter 0,$(shell id -u)),--allow-root) $(LAB_ARGS)
 
 test-unit: $(STAMP)
-	$(PY) -m pytest tests -m "not e2e" $(PYTEST_ARGS)
+	$(PY) -m pytest tests -m "not e2e" -n $(TEST_WORKERS) --dist worksteal $(PYTEST_ARGS)
 
 # The lessons run against an empty external-data folder: they must work on a clone without
-# ../shared/data (lesson 09 uses the windows shipped in data/motion/).
+# ../shared/data (lesson 09 uses the windows shipped in data/motion/). Each lesson runs whole on
+# one worker (--dist loadfile): its cells share one kernel, in order.
 test-lessons: $(STAMP)
 	@empty=$$(mktemp -d); \
 	PHYSLAB_EXTERNAL_DATA=$$empty $(PY) -m pytest --nbval-lax --nbval-current-env \
-		--nbval-cell-timeout=300 lessons $(PYTEST_ARGS); rc=$$?; rm -rf "$$empty"; exit $$rc
+		--nbval-cell-timeout=300 -n $(TEST_WORKERS) --dist loadfile lessons $(PYTEST_ARGS); rc=$$?; rm -rf "$$empty"; exit $$rc
 
 test-e2e: $(STAMP) browser
-	$(PY) -m pytest tests -m e2e $(PYTEST_ARGS)
+	$(PY) -m pytest tests -m e2e -n $(TEST_WORKERS) --dist worksteal $(PYTEST_ARGS)
 
 # All three stages run even when one fails, so a flaky lesson cannot hide a broken browser
 # test; the last line names every failed stage. (pytest exits 5 when it collects nothing.)

@@ -67,10 +67,19 @@ def tear_sequences(pair, key1, occ1, n=4):
     return np.linspace(1, 0, n), fs, fl, es, el, (single, layered)
 
 
-def tear_figure(pair, key1, occ1, n=4):
+def tear_figure(pair, key1, occ1, n=4, sequences=None):
     """Fig. 2d analogue: a single sheet tears where a limb crossing the body moves away; the
-    layered template does not. Rows: truth, single sheet, layered; E_d per frame."""
-    t, fs, fl, es, el, tpls = tear_sequences(pair, key1, occ1, n)
+    layered template does not. Rows: truth, single sheet, layered; E_d per frame.
+
+    ``sequences``: what :func:`tear_sequences` returned for the same arguments, to draw it
+    without solving the deformations again (default: solve them here).
+    Returns ``(fig, (single, layered))`` (the two templates)."""
+    if sequences is None:
+        sequences = tear_sequences(pair, key1, occ1, n)
+    t, fs, fl, es, el, tpls = sequences
+    if len(t) != n:
+        raise ValueError(f"sequences hold {len(t)} frames but n = {n}: pass what "
+                         f"tear_sequences(pair, key1, occ1, n={n}) returned")
     truth = pair.ground_truth(t)
     fig, axes = _grid(3, n, 1.9, 2.0)
     for j in range(n):

@@ -199,6 +199,9 @@ class CrossDissolve:
     tests.
     """
 
+    def __repr__(self):
+        return "CrossDissolve()"
+
     def __call__(self, img0, img1, alphas):
         """(n_α, H, W, C) float32 frames; see :class:`FrameInterpolator`."""
         a, b = _check_pair(img0, img1)

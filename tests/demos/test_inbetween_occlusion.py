@@ -53,3 +53,21 @@ def test_three_layer_demo_and_figure():
     fig = demo.three_layer_figure(pair, truth, runs)
     assert len(fig.axes) == 5 and len(fig.axes[0].collections) == 2   # ranks 1 and 2
     assert [a.get_title().split("\n")[0] for a in fig.axes[1:]] == ["truth"] + list(runs)
+
+
+def test_tear_figure_draws_given_sequences_without_solving(monkeypatch):
+    pair, k0, k1, o0, o1 = demo.occluded_pair("fold_arm", 96)
+    t = np.linspace(1, 0, 3)
+    frames = list(pair.ground_truth(t))
+    seq = (t, frames, frames, [4.0, 5.25, 9.5], [4.0, 4.125, 4.5], ("single", "layered"))
+
+    def no_solve(*a, **k):
+        raise AssertionError("tear_figure solved the deformations although they were given")
+
+    monkeypatch.setattr(demo, "tear_sequences", no_solve)
+    fig, tpls = demo.tear_figure(pair, k1, o1, n=3, sequences=seq)
+    titles = [ax.get_title() for ax in fig.axes]
+    assert tpls == ("single", "layered")
+    assert "E_d = 9.50" in titles and "E_d = 4.50" in titles      # the given energies, drawn
+    with pytest.raises(ValueError, match="n = 4"):
+        demo.tear_figure(pair, k1, o1, n=4, sequences=seq)
