@@ -16,6 +16,32 @@ def test_animate_springs_html5_video():
     assert "<script" in js.data
 
 
+def test_animate_springs_lays_out_once_with_the_title_inside_the_figure():
+    """The layout is computed once (frame 0's title in place) and then frozen: saving a frame
+    must not re-run it, and no frame's title or axis labels may leave the figure."""
+    s = springs.chain(5)
+    r = simulate(s, *s.rest_state(), 0.01, 30)
+    an = anim.animate_springs(r.x, s.edges, t=r.t, max_frames=6, html=False)
+    fig = an._fig
+    assert fig.get_layout_engine() is None
+    ax = fig.axes[0]
+    pos = ax.get_position().bounds
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    canvas = FigureCanvasAgg(fig)
+    for k in (0, 5):
+        an._func(k)
+        canvas.draw()
+        renderer = canvas.get_renderer()
+        box = fig.bbox
+        assert ax.title.get_text().startswith("t = ")
+        for artist in (ax.title, ax.xaxis.label, ax.yaxis.label):
+            ext = artist.get_window_extent(renderer)
+            assert box.x0 - 1 <= ext.x0 and ext.x1 <= box.x1 + 1, artist
+            assert box.y0 - 1 <= ext.y0 and ext.y1 <= box.y1 + 1, artist
+        assert ax.get_position().bounds == pos              # the axes never move
+
+
 def test_save_gif_roundtrip(tmp_path):
     import imageio.v3 as iio
 
