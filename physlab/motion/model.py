@@ -937,6 +937,18 @@ class ControlledDenoiser(nn.Module):
             e_k = self.adapter.keypose_encoder(cond["keypose"], cond["key_frame"])
         return e_tr, e_k
 
+    def _given_embeddings(self, cond, batch):
+        """``cond["embeddings"]`` checked: ``(e_tr (B, T, C), e_k (B, C))``."""
+        emb = cond["embeddings"]
+        C, T = self.config.d_model, self.config.n_frames
+        shapes = [tuple(getattr(e, "shape", ())) for e in emb] if isinstance(emb, (tuple, list)) \
+            else None
+        if shapes != [(batch, T, C), (batch, C)]:
+            raise ValueError(f"cond['embeddings'] must be the pair condition_embeddings(cond) "
+                             f"returns, shapes [{(batch, T, C)}, {(batch, C)}], got "
+                             f"{shapes if shapes is not None else type(emb).__name__}")
+        return emb
+
     def train(self, mode=True):
         super().train(mode)
         self.base.eval()                                   # the frozen base never drops out
@@ -945,7 +957,9 @@ class ControlledDenoiser(nn.Module):
     def forward(self, x_t, t, text_emb, cond, drop_text=None):
         """Network output ``(B, T, D)`` (x̂₀ / ε̂ / v̂, as for :class:`MotionDenoiser`) for noisy features ``x_t`` (B, T, D), timesteps ``t`` (B,),
         action embeddings ``text_emb`` (B, text_dim) and a condition dict (see
-        :func:`check_condition`)."""
+        :func:`check_condition`). ``cond`` may carry ``"embeddings"``: the pair
+        :meth:`condition_embeddings` returns for it, made once per clip by the sampler (the
+        conditions stay the same at every denoising step; the ControlNet + adapter model only)."""
         _check_inputs(x_t, t, text_emb, self.config, drop_text)
         check_condition(cond, x_t.shape[0], self.config.n_joint_frames)
         traj, mask = cond["trajectory"], cond["traj_mask"]
@@ -956,7 +970,8 @@ class ControlledDenoiser(nn.Module):
                 x_t, t, text_emb, self.controlnet.cond_encoder(frames), drop_text,
                 with_hidden=True)
         else:
-            e_tr, e_k = self.condition_embeddings(cond)
+            e_tr, e_k = (self._given_embeddings(cond, x_t.shape[0]) if "embeddings" in cond
+                         else self.condition_embeddings(cond))
             r, h_r = self.controlnet.from_embedding(x_t, t, text_emb, e_tr, drop_text,
                                                     with_hidden=True)
             if self.double_controlnet:                     # two parallel ControlNets: r + r'

@@ -678,6 +678,11 @@ class Generator:
             net_cond = self._sketch_condition(cond, c, sk, camera)
             if not controlled:
                 cond = None
+        if net_cond is not None and not self.model.single_controlnet:
+            # The condition encoders see only the conditions, which no step changes: encode
+            # them once per clip, not at each of the `steps` network calls (same numbers).
+            with torch.no_grad():
+                net_cond = dict(net_cond, embeddings=self.model.condition_embeddings(net_cond))
         target = None
         if cond is not None and (inference_guidance > 0 or guidance_final > 0):
             # the loss functions read targets from (1, N, 22, 3) joints: write the keypose

@@ -105,6 +105,27 @@ def test_shapes_base_controlled_single():
         ControlledDenoiser(base, single_controlnet=True, double_controlnet=True)
 
 
+def test_given_condition_embeddings_give_the_same_output_and_are_checked():
+    """The sampler encodes a clip's conditions once and hands them in as cond["embeddings"]:
+    the output must be exactly what encoding them in forward gives."""
+    cfg = DenoiserConfig(**TINY)
+    torch.manual_seed(0)
+    ctrl = ControlledDenoiser(MotionDenoiser(cfg)).eval()
+    with torch.no_grad():                   # trained-like: the zero layers let conditions in
+        for z in list(ctrl.controlnet.zero) + list(ctrl.adapter.zero):
+            z.weight.normal_(0.0, 0.1)
+    x, t, a, cond = _inputs(cfg=cfg)
+    want = ctrl(x, t, a, cond)
+    other = dict(cond, trajectory=cond["trajectory"] + 1.0, keypose=cond["keypose"] - 1.0)
+    assert not torch.allclose(ctrl(x, t, a, other), want)           # the conditions matter
+    emb = ctrl.condition_embeddings(cond)
+    assert torch.equal(ctrl(x, t, a, dict(cond, embeddings=emb)), want)
+    assert torch.equal(ctrl(x, t, a, dict(other, embeddings=emb)), want)   # emb is what is read
+    for bad in ((emb[0],), (emb[0], emb[1][:1]), "emb"):
+        with pytest.raises(ValueError, match=r"cond\['embeddings'\] must be the pair"):
+            ctrl(x, t, a, dict(cond, embeddings=bad))
+
+
 @pytest.mark.parametrize("p", [0.1, 0.3, 0.5])
 @pytest.mark.parametrize("dtype", [torch.float32, torch.bfloat16])
 def test_dropout_is_inverted_dropout_with_the_asked_rate(p, dtype):

@@ -63,6 +63,16 @@ def test_deterministic_per_seed_and_seed_matters(gen, text):
     assert not np.allclose(a, gen(text, seed=4, **kw))
 
 
+@pytest.mark.parametrize("guidance", [{}, {"inference_guidance": 1, "guidance_final": 2}])
+def test_the_conditions_are_encoded_once_per_clip(gen, text, monkeypatch, guidance):
+    calls = []
+    encode = gen.model.condition_embeddings
+    monkeypatch.setattr(gen.model, "condition_embeddings",
+                        lambda cond: calls.append(1) or encode(cond))
+    gen(text, steps=STEPS, **CONDITIONS["all_last"], **guidance)
+    assert len(calls) == 1, f"{len(calls)} encodings of one clip's conditions in {STEPS} steps"
+
+
 def test_guidance_scale_changes_the_sample(gen, text):
     a = gen(text, guidance_scale=0.0, steps=STEPS)
     b = gen(text, guidance_scale=7.5, steps=STEPS)
