@@ -50,7 +50,7 @@ lab: $(STAMP)
 	$(BIN)/jupyter lab --notebook-dir=lessons $(if $(filter 0,$(shell id -u)),--allow-root) $(LAB_ARGS)
 
 test-unit: $(STAMP)
-	$(PY) -m pytest tests -m "not e2e" -n $(TEST_WORKERS) --dist worksteal $(PYTEST_ARGS)
+	$(PY) -m pytest tests -m "not e2e" -n $(TEST_WORKERS) --dist loadgroup $(PYTEST_ARGS)
 
 # The lessons run against an empty external-data folder: they must work on a clone without
 # ../shared/data (lesson 09 uses the windows shipped in data/motion/). Each lesson runs whole on

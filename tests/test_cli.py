@@ -13,6 +13,7 @@ def test_lesson_paths_selection():
 
 
 @pytest.mark.slow
+@pytest.mark.xdist_group("nbclient_kernel")       # see tests/test_viz.py
 def test_reproduce_writes_the_lesson_figures(tmp_path):
     cli.main(["reproduce", "--lessons", "01", "--out", str(tmp_path)])
     pngs = sorted((tmp_path / "01_odes_and_explicit_euler").glob("*.png"))
