@@ -43,14 +43,16 @@ def lesson_paths(selection=None, lessons_dir=LESSONS_DIR):
 def execute_notebook(path, timeout=600, cwd=None):
     """Execute a notebook with nbclient (a fresh python3 kernel) and return it."""
     import nbformat
-    from nbclient import NotebookClient
+
+    from physlab._kernel import notebook_client
 
     nb = nbformat.read(path, as_version=4)
-    # The kernel's own stdout/stderr (start-up warnings) go nowhere: when they were files
-    # that a test runner captures (pytest's fd capture), the run hung in the widget cell
-    # until the cell timeout. Cell output reaches the notebook through IOPub regardless.
-    NotebookClient(nb, timeout=timeout, kernel_name="python3",
-                   resources={"metadata": {"path": str(cwd or Path(path).parent)}}).execute(
+    # The client polls in slices (physlab._kernel): nbclient's own client sometimes slept
+    # through a reply that was already there until the whole cell timeout had passed.
+    # The kernel's own stdout/stderr (start-up warnings) go nowhere; cell output reaches
+    # the notebook through IOPub regardless.
+    notebook_client(nb, timeout=timeout, kernel_name="python3",
+                    resources={"metadata": {"path": str(cwd or Path(path).parent)}}).execute(
         stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     return nb
 

@@ -79,15 +79,17 @@ def test_interact_fixes_unlisted_defaults_and_calls_back():
     assert box.children[0].continuous_update is False
 
 
-# Two nbclient kernels running widget cells at once, one per xdist worker, both waited until
-# their cell timeouts (2026-11-28): the tests that start one share a worker (--dist loadgroup).
+# nbclient's own client sometimes slept through a cell's reply until the cell timeout
+# (tests/test_kernel.py); physlab._kernel's client does not. The two tests that start a
+# kernel still share an xdist worker (--dist loadgroup), as they did while that was unknown.
 @pytest.mark.xdist_group("nbclient_kernel")
 def test_interact_shows_exactly_one_figure_in_a_real_kernel():
     """Under a Jupyter kernel the widget's output area holds the callback's figure, once."""
     import subprocess
 
-    from nbclient import NotebookClient
     from nbformat.v4 import new_code_cell, new_notebook
+
+    from physlab._kernel import notebook_client
 
     nb = new_notebook(cells=[
         new_code_cell("%matplotlib inline\nfrom physlab.demos.basics import ode_demo\n"
@@ -98,6 +100,6 @@ def test_interact_shows_exactly_one_figure_in_a_real_kernel():
                       "box.children[0].value = 0.05  # the student moves the slider\n"
                       "print(len(outs), 'image/png' in outs[0]['data'], 'dt = 0.05 s' in box.result._suptitle.get_text())"),
     ], metadata={"kernelspec": {"name": "python3", "display_name": "Python 3", "language": "python"}})
-    NotebookClient(nb, timeout=120, kernel_name="python3").execute(
+    notebook_client(nb, timeout=120, kernel_name="python3").execute(
         stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)  # as physlab.cli.execute_notebook
     assert nb.cells[1].outputs[0]["text"].split() == ["1", "True", "True"]
