@@ -3,6 +3,7 @@ with the same keyword names.
 
     physlab lessons                                        list the lessons
     physlab reproduce [--out reports] [--lessons 01 03]   execute lessons headless, save figures
+                      [--timeout 600]                      (seconds per cell; execute too)
     physlab execute lessons/01_*.ipynb                    execute notebooks in place (maintainers)
     physlab animate --drawing tree --out tree.gif          a drawing blown by a wind stroke
     physlab inbetween K0.png K1.png --skeleton0 s0.json --skeleton1 s1.json --frames 11 --out DIR
@@ -72,8 +73,9 @@ def save_figures(nb, out_dir):
     return written
 
 
-def reproduce(out="reports", lessons=None, progress=True):
-    """Execute the lessons headless (not in place) and save their figures under ``out/``.
+def reproduce(out="reports", lessons=None, progress=True, timeout=600):
+    """Execute the lessons headless (not in place) and save their figures under ``out/``;
+    ``timeout``: seconds any one cell may run.
 
     Returns ``{lesson name: [png paths]}``."""
     from tqdm.auto import tqdm
@@ -82,7 +84,7 @@ def reproduce(out="reports", lessons=None, progress=True):
     paths = lesson_paths(lessons)
     for path in tqdm(paths, desc="lessons", disable=not progress):
         t0 = time.perf_counter()
-        nb = execute_notebook(path)
+        nb = execute_notebook(path, timeout=timeout)
         results[path.stem] = save_figures(nb, Path(out) / path.stem)
         if progress:
             tqdm.write(f"{path.name}: {len(results[path.stem])} figures, {time.perf_counter() - t0:.1f} s")
@@ -110,10 +112,11 @@ def _parser():
                        epilog="example:\n  physlab reproduce --lessons 01 03 --out reports")
     r.add_argument("--out", default="reports")
     r.add_argument("--lessons", nargs="*", help="number prefixes, e.g. 01 03 (default: all)")
+    r.add_argument("--timeout", type=int, default=600, help="seconds any one cell may run")
     e = sub.add_parser("execute", help="execute notebooks in place (stores outputs)",
                        epilog="example:\n  physlab execute lessons/02_second_order_and_implicit.ipynb")
     e.add_argument("paths", nargs="+")
-    e.add_argument("--timeout", type=int, default=600)
+    e.add_argument("--timeout", type=int, default=600, help="seconds any one cell may run")
     sub.add_parser("lessons", help="list the lessons", epilog="example:\n  physlab lessons")
     a = sub.add_parser("animate", help="PhysAnimator pipeline: drawing -> simulation -> GIF/MP4",
                        epilog="examples:\n  physlab animate --drawing tree --out tree.gif\n"
@@ -218,8 +221,11 @@ def main(argv=None):
 
 
 def _dispatch(args):
+    if args.cmd in ("reproduce", "execute") and args.timeout <= 0:
+        raise ValueError(f"--timeout must be a positive number of seconds per cell, got "
+                         f"{args.timeout}")
     if args.cmd == "reproduce":
-        res = reproduce(args.out, args.lessons)
+        res = reproduce(args.out, args.lessons, timeout=args.timeout)
         print(f"wrote {sum(len(v) for v in res.values())} figures to {args.out}/")
     elif args.cmd == "execute":
         import nbformat
