@@ -55,8 +55,10 @@ class PatientKernelClient(AsyncKernelClient):
 class PatientKernelManager(AsyncKernelManager):
     """An ``AsyncKernelManager`` whose clients are :class:`PatientKernelClient`."""
 
-    client_class = DottedObjectName("physlab._kernel.PatientKernelClient", config=True)
     client_factory = Type(PatientKernelClient, klass=AsyncKernelClient, config=True)
+    # (what client() builds is client_factory; the dotted name is kept in step with it)
+    client_class = DottedObjectName(f"{__name__}.{PatientKernelClient.__qualname__}",
+                                    config=True)
 
 
 def notebook_client(nb, **kwargs):

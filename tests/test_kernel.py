@@ -41,6 +41,8 @@ async def _reply_after_a_missed_wakeup(channel_class, timeout, slice_seconds=Non
     finally:
         kernel_side.close(0)
         client_side.close(0)
+        ctx.term()
+        sync_ctx.term()
 
 
 def test_the_plain_channel_sleeps_through_a_missed_wakeup_until_its_timeout():
@@ -72,6 +74,7 @@ def test_the_patient_channel_raises_empty_only_after_the_whole_timeout():
             return time.perf_counter() - t0
         finally:
             sock.close(0)
+            ctx.term()
 
     assert asyncio.run(wait_for_nothing()) >= 0.4
 
