@@ -32,8 +32,11 @@ What is measured
    (40 L-BFGS iterations on the last x̂₀); and the per-step guidance variants of Table A3
    (4 iterations per step through the network, first-order or L-BFGS;
    :data:`physlab.motion.evaluate.GUIDANCE_VARIANTS`).
-   Reference, measured in the same run: the networks-only clip with the DDPM sampler over
-   all training timesteps (999 with the MLD scheduler's ``steps_offset = 1``).
+   References, measured in the same run: the networks-only clip with the DDPM sampler over
+   all training timesteps (999 with the MLD scheduler's ``steps_offset = 1``), and with the
+   controlled network's encoders run one after the other (``Generator.fused = False``)
+   instead of the blocks of one depth batched (:class:`~physlab.motion.model.
+   FusedControlledDenoiser`).
    The paper reports 0.427 s per clip on an RTX 4090, guidance included (printed for
    orientation). Target (issue 12): a guided clip in at most 0.5 s on one thread.
 3. **Peak memory**: the process's maximum resident set size, and the checkpoint sizes.
@@ -155,6 +158,9 @@ def main(argv=None):
         ctrl = dict(keypose_3d=keypose, keypose_at="last", trajectories_3d=traj, steps=steps)
         t_text = _time(lambda: gen(text, steps=steps), args.repeats)
         t_ctrl = _time(lambda: gen(text, **ctrl, **UNGUIDED), args.repeats)
+        gen.fused = False                 # reference: the encoders one after the other
+        t_unfused = _time(lambda: gen(text, **ctrl, **UNGUIDED), args.repeats)
+        gen.fused = True
         t_guided = _time(lambda: gen(text, **ctrl, **GUIDED), args.repeats)
         t_variants = {k: _time(lambda: gen(text, **ctrl, **v), 1)
                       for k, v in GUIDANCE_VARIANTS.items()}
@@ -207,6 +213,8 @@ def main(argv=None):
     print(f"sampling from | {Path(path).name}")
     print(f"clip, text only, CFG, DDIM {steps} | {t_text:.3f} s")
     print(f"clip, keypose + trajectory, networks only, DDIM {steps} | {t_ctrl:.3f} s")
+    print(f"reference: the same, encoders one after the other (Generator.fused = False) | "
+          f"{t_unfused:.3f} s (fused / sequential = {t_ctrl / t_unfused:.2f})")
     print(f"clip, keypose + trajectory + guidance (generate's default) | {t_guided:.3f} s")
     for k, t in t_variants.items():
         print(f"clip, keypose + trajectory {k} (1 run) | {t:.3f} s")
@@ -226,7 +234,8 @@ def main(argv=None):
           f"thread(s): {verdict}; paper: {PAPER_SECONDS_PER_CLIP} s on an RTX 4090 → ratio "
           f"{t_guided / PAPER_SECONDS_PER_CLIP:.2f}")
     out.update(base=base, control=control, bf16=bf16, seconds_text=t_text,
-               seconds_control=t_ctrl, seconds_guided=t_guided, seconds_variants=t_variants,
+               seconds_control=t_ctrl, seconds_unfused=t_unfused, seconds_guided=t_guided,
+               seconds_variants=t_variants,
                seconds_reference=t_ref, seconds_sketch=t_sketch, peak_mib=peak,
                checkpoint_mib=sizes, seconds_storyboard=t_board, dropout_windows_per_s=dropout,
                auto_precision=prec)

@@ -63,6 +63,7 @@ def test_bench_motion_quick_runs(real_data, capsys):
                                                  for ref in (False, True)}
     assert all(v > 0 for v in out["dropout_windows_per_s"].values())
     assert out["seconds_control"] > 0 and out["seconds_reference"] > 0
+    assert out["seconds_unfused"] > 0
     assert out["seconds_guided"] > 0 and all(t > 0 for t in out["seconds_variants"].values())
     printed = capsys.readouterr().out
     assert "RTX 4090" in printed and "torch.nn.Dropout" in printed

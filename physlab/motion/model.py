@@ -76,10 +76,12 @@ __all__ = [
     "ControlledDenoiser",
     "DenoiserConfig",
     "FrameConditionEncoder",
+    "FusedControlledDenoiser",
     "KeyposeAdapter",
     "KeyposeEncoder",
     "MotionDenoiser",
     "SketchKeyposeEncoder",
+    "StackedBlocks",
     "camera_features",
     "sketch_trajectory_encoder",
     "sketch_trajectory_frames",
@@ -509,6 +511,12 @@ class MotionDenoiser(nn.Module):
                              f"{len(residuals)}")
         h = self.encoder.tokens(x_t, t, text_emb, drop_text)               # (B, 1+T, C)
         h = self.encoder.run_blocks(h, residuals)[-1]                      # (B, 1+T, C)
+        return self.output(h, x_t, t, out_extra)
+
+    def output(self, h, x_t, t, out_extra=None):
+        """The head on the last block output ``h`` (B, 1+T, C): ``(B, T, D)`` x̂₀ / ε̂ / v̂,
+        with the skip connection, ``out_extra`` and the low-pass basis (the end of
+        :meth:`forward`, shared with :class:`FusedControlledDenoiser`)."""
         out = self.head(self.ln_f(h[:, 1:]))                               # (B, T, D)
         if self.config.skip:
             if not self.skip_scale.numel():
@@ -985,3 +993,138 @@ class ControlledDenoiser(nn.Module):
         extra = None if self.control_head is None else self.control_head(hidden[:, 1:])
         return self.base(x_t, t, text_emb, drop_text, residuals=res,
                          out_extra=extra)                                   # Eq. (4)
+
+
+# ----------------------------------------------------------------------------- fused inference
+
+
+class StackedBlocks:
+    """Block ``i`` of ``S`` same-shaped encoders run as one batched computation, for inference.
+
+    A controlled denoising step runs three encoders (ControlNet copy, adapter copy, base)
+    whose block ``i`` reads only block ``i - 1`` of the same encoder: the residuals are added
+    *after* a block (:meth:`DenoiserEncoder.run_blocks`), so the ``S`` blocks of one depth can
+    run side by side. Here they run as one: the weights are stacked ``(S, ...)`` and every
+    linear layer is one :func:`torch.baddbmm`. At batch 1 (one clip) a block of this size
+    costs about as much at ``S = 3`` as at ``S = 1`` on a CPU: the time goes to launching
+    operators, not to arithmetic (``benchmarks/bench_motion.py``, "fused" row).
+
+    The same arithmetic as :class:`Block` in eval mode (dropout off), to float rounding. The
+    weights are copied at construction: build a new one after changing them.
+
+    Parameters
+    ----------
+    blocks : sequence of :class:`Block`, all with the same widths and head count.
+    """
+
+    def __init__(self, blocks):
+        blocks = list(blocks)
+        first = blocks[0]
+        if any(b.attn.n_heads != first.attn.n_heads
+               or b.mlp[0].weight.shape != first.mlp[0].weight.shape for b in blocks):
+            raise ValueError("StackedBlocks needs blocks of one shape (d_model, ff, n_heads)")
+        self.n_heads = first.attn.n_heads
+        self.eps = (first.ln1.eps, first.ln2.eps)
+
+        def stack(get, transpose=False):
+            ts = [get(b).detach() for b in blocks]
+            return torch.stack([t.T if transpose else t for t in ts]).contiguous()
+
+        self.ln = [(stack(lambda b, n=n: getattr(b, n).weight)[:, None, None],
+                    stack(lambda b, n=n: getattr(b, n).bias)[:, None, None])
+                   for n in ("ln1", "ln2")]                              # (S, 1, 1, C) each
+        linears = {"qkv": lambda b: b.attn.qkv, "proj": lambda b: b.attn.proj,
+                   "fc1": lambda b: b.mlp[0], "fc2": lambda b: b.mlp[2]}
+        self.w = {k: stack(lambda b, f=f: f(b).weight, transpose=True)   # (S, in, out)
+                  for k, f in linears.items()}
+        self.b = {k: stack(lambda b, f=f: f(b).bias)[:, None]            # (S, 1, out)
+                  for k, f in linears.items()}
+
+    def _linear(self, name, x):                                            # (S, M, in)
+        return torch.baddbmm(self.b[name], x, self.w[name])               # (S, M, out)
+
+    def __call__(self, h):
+        """``h`` (S, B, L, C): the inputs of the ``S`` blocks -> their outputs (S, B, L, C)."""
+        S, B, L, C = h.shape
+        H = self.n_heads
+        (g1, b1), (g2, b2) = self.ln
+        x = F.layer_norm(h, (C,), eps=self.eps[0]) * g1 + b1
+        q, k, v = self._linear("qkv", x.reshape(S, B * L, C)).split(C, dim=2)
+        q, k, v = (u.reshape(S * B, L, H, C // H).transpose(1, 2) for u in (q, k, v))
+        att = (q @ k.transpose(-2, -1)) / math.sqrt(k.shape[-1])         # (S B, H, L, L)
+        y = (att.softmax(dim=-1) @ v).transpose(1, 2).reshape(S, B * L, C)
+        h = h + self._linear("proj", y).view(S, B, L, C)
+        x = F.layer_norm(h, (C,), eps=self.eps[1]) * g2 + b2
+        m = F.gelu(self._linear("fc1", x.reshape(S, B * L, C)))
+        return h + self._linear("fc2", m).view(S, B, L, C)
+
+
+class FusedControlledDenoiser:
+    """:meth:`ControlledDenoiser.forward` for inference, with the blocks of one depth of all
+    its encoders run as one :class:`StackedBlocks` (same call, same output to float rounding;
+    about half the time of a controlled step at batch 1 on a CPU, ``benchmarks/bench_motion.py``).
+
+    The sampler (:class:`~physlab.motion.sampling.Generator`) builds one per controlled
+    checkpoint. It snapshots the block weights: build a new one after changing the model's
+    weights. Gradients flow to the inputs (the network-space guidance needs them), not to
+    the snapshot.
+
+    Parameters
+    ----------
+    model : :class:`ControlledDenoiser` in eval mode (dropout off), any variant.
+    """
+
+    def __init__(self, model: ControlledDenoiser):
+        if not isinstance(model, ControlledDenoiser):
+            raise TypeError(f"model must be a ControlledDenoiser, got {type(model).__name__}")
+        if model.training:
+            raise ValueError("FusedControlledDenoiser is for inference: call model.eval() first "
+                             "(it has no dropout)")
+        self.model = model
+        self.config = model.config
+        encoders = [model.controlnet.encoder]
+        if model.adapter is not None:
+            encoders.append(model.adapter.encoder)
+        encoders.append(model.base.encoder)
+        self.layers = [StackedBlocks([e.blocks[i] for e in encoders])
+                       for i in range(len(model.base.encoder.blocks))]
+
+    def __repr__(self):
+        return (f"FusedControlledDenoiser(variant={self.model.variant!r}, "
+                f"encoders={len(self.layers[0].ln[0][0])}, layers={len(self.layers)})")
+
+    def __call__(self, x_t, t, text_emb, cond, drop_text=None):
+        m = self.model
+        _check_inputs(x_t, t, text_emb, self.config, drop_text)
+        check_condition(cond, x_t.shape[0], self.config.n_joint_frames)
+        km = cond.get("keypose_mask")
+        cn, ad, base = m.controlnet, m.adapter, m.base
+        if m.single_controlnet:
+            frames = unified_frames(cond["trajectory"], cond["traj_mask"], cond["keypose"],
+                                    cond["key_frame"], km)
+            tokens = [cn.encoder.tokens(x_t, t, text_emb, drop_text,
+                                        motion_extra=cn.cond_encoder(frames))]
+        else:
+            e_tr, e_k = (m._given_embeddings(cond, x_t.shape[0]) if "embeddings" in cond
+                         else m.condition_embeddings(cond))
+            if km is not None:                                             # no keypose: a' = a
+                e_k = e_k * km.to(e_k.dtype)[:, None]
+            tokens = [cn.encoder.tokens(x_t, t, text_emb, drop_text, motion_extra=e_tr),
+                      ad.encoder.tokens(x_t, t, text_emb, drop_text, cond_extra=e_k)]
+        tokens.append(base.encoder.tokens(x_t, t, text_emb, drop_text))
+        h = torch.stack(tokens)                                            # (S, B, 1+T, C)
+        for i, layer in enumerate(self.layers):
+            h = layer(h)
+            r = cn.zero[i](h[0])                                           # Eq. (1): r_i
+            if m.single_controlnet:
+                h = torch.stack([h[0], h[1] + r])
+                hidden = h[0]
+            elif m.double_controlnet:                                      # r_i + r'_i
+                h = torch.stack([h[0], h[1], h[2] + r + ad.zero[i](h[1])])
+                hidden = h[0] + h[1]
+            else:                                                          # Eq. (3), then (4)
+                h_k = h[1] + r
+                h = torch.stack([h[0], h_k, h[2] + ad.zero[i](h_k)])
+                hidden = h_k
+        extra = None if m.control_head is None else m.control_head(hidden[:, 1:])
+        return base.output(h[-1], x_t, t, extra)

@@ -457,3 +457,64 @@ def test_controlnet_variant_names_models_and_checkpoints_alike():
     assert controlnet_variant({"single_controlnet": False, "double_controlnet": True}) == "double"
     with pytest.raises(ValueError, match="single_controlnet and double_controlnet"):
         controlnet_variant({"single_controlnet": True, "double_controlnet": True})
+
+
+# ----------------------------------------------------------------------------- fused inference
+
+
+def _randomised(module, seed):
+    """Every parameter of ``module`` drawn at random (zero layers included), so that each
+    branch changes the output."""
+    g = torch.Generator().manual_seed(seed)
+    with torch.no_grad():
+        for p in module.parameters():
+            p.copy_(torch.randn(p.shape, generator=g) * 0.2)
+    return module
+
+
+@pytest.mark.parametrize("variant", ["adapter", "single", "double"])
+@pytest.mark.parametrize("head", [False, True])
+def test_fused_controlled_denoiser_equals_the_model(variant, head):
+    """FusedControlledDenoiser runs the blocks of one depth of all encoders as one batched
+    computation: its output must equal ControlledDenoiser.forward (eval mode) for every
+    Table 2 variant, with and without the control head, skip connection, text dropout, a
+    missing keypose and precomputed condition embeddings, and so must the gradient with
+    respect to x_t (what the network-space guidance follows)."""
+    from physlab.motion.diffusion import NoiseScheduler, SchedulerConfig
+    from physlab.motion.model import FusedControlledDenoiser
+
+    cfg = DenoiserConfig.for_representation("absolute", d_model=32, n_heads=2, n_layers=3,
+                                            ff=64, skip=True, skip_pelvis=False)
+    base = MotionDenoiser(cfg).set_schedule(NoiseScheduler(SchedulerConfig()).alphas_cumprod)
+    ctrl = ControlledDenoiser(_randomised(base, 1), single_controlnet=variant == "single",
+                              double_controlnet=variant == "double", control_head=head)
+    ctrl = _randomised(ctrl, 2).eval()
+    fused = FusedControlledDenoiser(ctrl)
+    x, t, a, cond = _inputs(B=3, cfg=cfg)
+    cond["keypose_mask"] = torch.tensor([True, False, True])
+    drop = torch.tensor([False, True, False])
+    conds = [cond]
+    if variant != "single":
+        with torch.no_grad():
+            conds.append({**cond, "embeddings": ctrl.condition_embeddings(cond)})
+    for c in conds:
+        with torch.no_grad():
+            ref, got = ctrl(x, t, a, c, drop), fused(x, t, a, c, drop)
+        assert float(ref.abs().max()) > 1.0                  # the branches act
+        torch.testing.assert_close(got, ref, rtol=1e-5, atol=1e-5)
+    grads = []
+    for net in (ctrl, fused):
+        z = x.clone().requires_grad_(True)
+        net(z, t, a, cond, drop).square().sum().backward()
+        grads.append(z.grad)
+    torch.testing.assert_close(grads[1], grads[0], rtol=1e-4, atol=1e-4)
+
+
+def test_fused_controlled_denoiser_refuses_training_mode_and_other_models():
+    from physlab.motion.model import FusedControlledDenoiser
+
+    base = MotionDenoiser(DenoiserConfig(**TINY))
+    with pytest.raises(ValueError, match="eval"):
+        FusedControlledDenoiser(ControlledDenoiser(base).train())
+    with pytest.raises(TypeError, match="ControlledDenoiser"):
+        FusedControlledDenoiser(base)

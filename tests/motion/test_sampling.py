@@ -73,6 +73,30 @@ def test_the_conditions_are_encoded_once_per_clip(gen, text, monkeypatch, guidan
     assert len(calls) == 1, f"{len(calls)} encodings of one clip's conditions in {STEPS} steps"
 
 
+def test_the_sampler_runs_the_fused_network_with_the_same_result(ckpts, text):
+    """Generator runs a control model's network as a FusedControlledDenoiser (the blocks of
+    one depth of all encoders batched); ``fused = False`` runs the model's own forward. The
+    networks-only clips agree to float rounding (zero layers randomised, so that the
+    ControlNet and adapter act)."""
+    from physlab.motion.model import FusedControlledDenoiser
+
+    g = Generator.from_checkpoint(ckpts["control"])
+    gen_t = torch.Generator().manual_seed(0)
+    with torch.no_grad():
+        for z in [*g.model.controlnet.zero, *g.model.adapter.zero]:
+            z.weight.copy_(torch.randn(z.weight.shape, generator=gen_t) * 0.3)
+    kw = dict(CONDITIONS["all_last"], steps=STEPS, guidance_final=0)
+    fused = g(text, **kw)
+    assert isinstance(g._fused, FusedControlledDenoiser)
+    g.fused = False
+    plain = g(text, **kw)
+    g.fused = True
+    np.testing.assert_allclose(fused, plain, atol=1e-4)
+    g.fused = False
+    unzeroed = Generator.from_checkpoint(ckpts["control"])(text, **kw)
+    assert np.abs(plain - unzeroed).max() > 1e-3              # the randomised layers act
+
+
 def test_guidance_scale_changes_the_sample(gen, text):
     a = gen(text, guidance_scale=0.0, steps=STEPS)
     b = gen(text, guidance_scale=7.5, steps=STEPS)
