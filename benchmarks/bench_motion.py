@@ -26,7 +26,7 @@ What is measured
    :data:`~physlab.motion.sampling.DEFAULT_CHECKPOINT`; the trained weights matter, since
    the guidance's L-BFGS stops when it has converged; ``--quick`` samples the smoke model):
    one 40-frame clip with classifier-free guidance (two network passes per step, batched) and
-   ``generate``'s default DDIM steps (40) on ``--sample-threads`` threads (1: with a batch of 2 the second thread costs
+   ``generate``'s default DDIM steps (25) on ``--sample-threads`` threads (1: with a batch of 2 the second thread costs
    more than it gives), median of ``--repeats`` runs: text only; keypose + trajectories by
    the networks alone (no inference guidance); with the default guidance of ``generate``
    (40 L-BFGS iterations on the last x̂₀); and the per-step guidance variants of Table A3
@@ -152,7 +152,7 @@ def main(argv=None):
         keypose, traj = w[-1], {"pelvis": w[20:, 0], "left_wrist": w[20:, 20]}
         from physlab.motion.sampling import DEFAULT_STEPS
 
-        steps = 2 if args.quick else DEFAULT_STEPS          # generate's default (40)
+        steps = 2 if args.quick else DEFAULT_STEPS          # generate's default (25)
         cfg = gen.scheduler.config   # every training timestep the spacing allows (999 with MLD's offset)
         ddpm_steps = 4 if args.quick else cfg.num_train_timesteps - cfg.steps_offset
         ctrl = dict(keypose_3d=keypose, keypose_at="last", trajectories_3d=traj, steps=steps)

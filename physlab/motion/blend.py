@@ -57,12 +57,12 @@ __all__ = ["BLEND_METHODS", "TRANSITION", "BlendResult", "place_after", "blend",
 #: baselines, and Sketch2Anim's inversion-based blending.
 BLEND_METHODS = ("concat", "linear", "slerp", "squad", "inpaint", "inversion")
 #: DDIM steps of the ``"inpaint"`` baseline (it starts from noise, as a generation does; 50 as
-#: in the README's generation tables, generation's default is 40, ``sampling.DEFAULT_STEPS``).
+#: in the README's generation tables, generation's default is 25, ``sampling.DEFAULT_STEPS``).
 INPAINT_STEPS = 50
 #: Default transition length in frames (Sketch2Anim supp. D masks 20 frames = 1 s).
 TRANSITION = 20
 #: DDIM steps of the inversion and of the denoising that follows (fewer than generation's
-#: 40: the window starts from a motion, not from noise).
+#: 25: the window starts from a motion, not from noise).
 BLEND_STEPS = 20
 #: L-BFGS iterations of the G_m guidance at every denoising step and at the last one.
 BLEND_GUIDANCE = (4, 20)

@@ -130,12 +130,19 @@ GUIDANCE_BONES = 10.0
 GUIDANCE_EDGES, EDGE_STEP = 10.0, 2.5
 
 #: Default DDIM steps of :meth:`Generator.__call__` / :func:`generate`. Sketch2Anim samples
-#: with 50; on 64 held-out windows (Cross protocol, `python -m physlab.motion.evaluate
-#: --steps 40` vs 50) 40 steps give the same clips' quality — guided trajectory error 0.0124
-#: vs 0.013 m, keypose 0.0148 vs 0.015 m, FID 0.116 vs 0.115, condition-edge step ratio 2.93
-#: vs 3.06; networks only 0.093 m either way — and a guided clip takes 0.41 s instead of
-#: 0.54 s on one thread (issue 12's target: <= 0.5 s).
-DEFAULT_STEPS = 40
+#: with 50. Measured with `python -m physlab.motion.evaluate --steps N` (2026-11-28):
+#:
+#: * shipped control model, 64 held-out windows (Cross protocol), 40 / 25 / 20 steps:
+#:   networks-only trajectory error 0.0830 / 0.0836 / 0.0846 m, FID 0.106 / 0.107 / 0.111;
+#:   guided trajectory error 0.0124 m at all three, FID 0.093 / 0.093 / 0.095, condition-edge
+#:   step ratio 2.62 / 2.65 / 2.57; text-only FID 0.142 at all three;
+#: * the balanced skip base, text only, 16 clips per action text (``--adherence``), 40 / 25:
+#:   pelvis speeds within 0.01 m/s for every action, wrist travel within 0.002 m/frame,
+#:   recognised 73 % / 73 %, jerk AUJ 2.64 / 2.57.
+#:
+#: 25 steps keep the clips' quality (20 begin to lose it) at 5/8 of the time of 40 (earlier:
+#: 40 matched 50). The README's tables before 2026-11-28 were measured at 50 steps.
+DEFAULT_STEPS = 25
 
 #: Where the per-step inference guidance optimises (:meth:`Generator.__call__`).
 GUIDANCE_SPACES = ("x0", "network")
@@ -527,7 +534,7 @@ class Generator:
         condition_scale : float >= 0, w_c of Eq. (14) on the keypose and trajectories
             (:meth:`_predict`; Sketch2Anim's form of the equation); 1 = the controlled
             network as it is, 0 = ignore the conditions.
-        steps : None (:data:`DEFAULT_STEPS`, 40) or int >= 1, denoising steps; method :
+        steps : None (:data:`DEFAULT_STEPS`, 25) or int >= 1, denoising steps; method :
             ``"ddim"`` (η = 0) | ``"ddpm"``.
         return_features : also return the (39, 137) de-normalised features.
         progress : tqdm bar over the steps.
