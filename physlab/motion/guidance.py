@@ -10,7 +10,8 @@ import torch
 from .dataset import TRAJECTORY_JOINTS
 from .model import features_to_joints_torch
 
-__all__ = ["control_losses", "projected_trajectory_loss", "sketch_losses"]
+__all__ = ["control_losses", "joint_control_losses", "projected_trajectory_loss",
+           "sketch_losses"]
 
 
 def control_losses(x0_hat, joints, cond, mean, std, representation="relative"):
@@ -31,6 +32,13 @@ def control_losses(x0_hat, joints, cond, mean, std, representation="relative"):
     """
     pred = features_to_joints_torch(x0_hat * std + mean,                    # (B, N, J, 3) R(x̂₀)
                                     representation=representation)
+    return joint_control_losses(pred, joints, cond)
+
+
+def joint_control_losses(pred, joints, cond):
+    """``(L_tr, L_key)`` of :func:`control_losses` from decoded joints ``pred`` (B, N, 22, 3)
+    = ``R(x̂₀)`` (m): for a caller that has decoded x̂₀ already (the inference guidance
+    decodes once per evaluation of G). ``joints`` and ``cond`` as there."""
     tj = list(TRAJECTORY_JOINTS)
     m = cond["traj_mask"].to(pred.dtype)                                     # (B, N, 6)
     d2 = ((pred[:, :, tj] - joints[:, :, tj]) ** 2).sum(-1)                  # (B, N, 6)

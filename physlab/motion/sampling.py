@@ -392,7 +392,7 @@ class Generator:
         :meth:`_guide_network` is the paper's form. ``optimizer="gradient"``: ``iters`` Adam
         steps (lr :data:`FIRST_ORDER_LR`) instead of L-BFGS, the first-order variant of Table
         A3."""
-        from .guidance import control_losses, sketch_losses
+        from .guidance import joint_control_losses, sketch_losses
 
         sched = self.scheduler
         x0, _ = sched.split_output(out, x, t)
@@ -440,9 +440,9 @@ class Generator:
             if GUIDANCE_EDGES and len(edges):           # no jump where a stroke starts / ends
                 g = g + GUIDANCE_EDGES * ((steps(joints) - step_cap).clamp(min=0) ** 2).sum()
             if has_traj:
-                g = g + control_losses(z, target_tr, cond, mean, std, rep)[0]  # Eq. (6)
+                g = g + joint_control_losses(joints, target_tr, cond)[0]      # Eq. (6)
             if has_key:
-                g = g + control_losses(z, target_key, cond, mean, std, rep)[1]  # Eq. (8)
+                g = g + joint_control_losses(joints, target_key, cond)[1]     # Eq. (8)
             if sketch is not None:
                 g = g + sum(sketch_losses(joints, sketch))                     # Eq. (16)
             if loss_fn is not None:
@@ -473,7 +473,7 @@ class Generator:
         network sees, if it differs from the 3D ``cond`` the losses read (a drawing through the
         2D encoders); ``loss_fn(joints)`` adds a term on the decoded joints (as in
         :meth:`_guide`). Returns ``(z_t, network output)``."""
-        from .guidance import control_losses, sketch_losses
+        from .guidance import joint_control_losses, sketch_losses
 
         mean = torch.as_tensor(self.stats.mean, dtype=x.dtype)
         std = torch.as_tensor(self.stats.std, dtype=x.dtype)
@@ -488,12 +488,12 @@ class Generator:
             z.grad = None
             x0, _ = self.scheduler.split_output(self._predict(z, t, a, net_cond, w, w_c), z, t)
             g = z.new_zeros(())
+            joints = features_to_joints_torch(x0 * std + mean, representation=rep)  # R(x̂₀)
             if has_traj:
-                g = g + control_losses(x0, target_tr, cond, mean, std, rep)[0]   # Eq. (6)
+                g = g + joint_control_losses(joints, target_tr, cond)[0]        # Eq. (6)
             if has_key:
-                g = g + control_losses(x0, target_key, cond, mean, std, rep)[1]  # Eq. (8)
+                g = g + joint_control_losses(joints, target_key, cond)[1]       # Eq. (8)
             if sketch is not None or loss_fn is not None:
-                joints = features_to_joints_torch(x0 * std + mean, representation=rep)
                 if sketch is not None:                                       # Eq. (16)
                     g = g + sum(sketch_losses(joints, sketch))
                 if loss_fn is not None:
