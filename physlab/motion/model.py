@@ -39,11 +39,16 @@ Design (and where it departs from the paper)
   its frame of a unified per-frame condition matrix, one ControlNet encodes it and its
   residuals go straight into the base.
 
+* **Fused inference** (not in the paper): :class:`FusedControlledDenoiser` runs the blocks of
+  one depth of the ControlNet copy, the adapter copy and the base as one batched computation
+  (:class:`StackedBlocks`, ``S`` stacked encoders); the sampler uses it.
+
 Condition encoders are constructor arguments (any module with the same call signature), so
 a later 2D variant (``E^2D_tr``, ``E^2D_k``, Sec. 5) can replace the 3D ones.
 
 Shapes: ``B`` batch, ``T = n_frames`` feature rows (39), ``N = T + 1`` frames (40),
-``D = feature_dim`` (137), ``C = d_model``, ``J = 22`` joints, ``R = 6`` trajectory joints.
+``D = feature_dim`` (137), ``C = d_model``, ``J = 22`` joints, ``R = 6`` trajectory joints,
+``S`` encoders stacked by :class:`StackedBlocks`.
 """
 from __future__ import annotations
 
@@ -967,7 +972,8 @@ class ControlledDenoiser(nn.Module):
         action embeddings ``text_emb`` (B, text_dim) and a condition dict (see
         :func:`check_condition`). ``cond`` may carry ``"embeddings"``: the pair
         :meth:`condition_embeddings` returns for it, made once per clip by the sampler (the
-        conditions stay the same at every denoising step; the ControlNet + adapter model only)."""
+        conditions stay the same at every denoising step; the ControlNet + adapter model only).
+        :class:`FusedControlledDenoiser` computes the same for inference: keep the two in step."""
         _check_inputs(x_t, t, text_emb, self.config, drop_text)
         check_condition(cond, x_t.shape[0], self.config.n_joint_frames)
         traj, mask = cond["trajectory"], cond["traj_mask"]
@@ -1005,40 +1011,60 @@ class StackedBlocks:
     whose block ``i`` reads only block ``i - 1`` of the same encoder: the residuals are added
     *after* a block (:meth:`DenoiserEncoder.run_blocks`), so the ``S`` blocks of one depth can
     run side by side. Here they run as one: the weights are stacked ``(S, ...)`` and every
-    linear layer is one :func:`torch.baddbmm`. At batch 1 (one clip) a block of this size
-    costs about as much at ``S = 3`` as at ``S = 1`` on a CPU: the time goes to launching
-    operators, not to arithmetic (``benchmarks/bench_motion.py``, "fused" row).
+    linear layer is one :func:`torch.baddbmm`, so each operator is launched once instead of
+    ``S`` times (at batch 1 a block of this size is small enough for launches to matter).
 
     The same arithmetic as :class:`Block` in eval mode (dropout off), to float rounding. The
-    weights are copied at construction: build a new one after changing them.
+    weights are copied at construction (:meth:`stale` says when the blocks' weights have
+    changed since).
 
     Parameters
     ----------
-    blocks : sequence of :class:`Block`, all with the same widths and head count.
+    blocks : non-empty sequence of :class:`Block`, all with the same widths, head count,
+        LayerNorm eps and GELU.
     """
 
     def __init__(self, blocks):
         blocks = list(blocks)
+        if not blocks:
+            raise ValueError("StackedBlocks needs at least one Block")
         first = blocks[0]
-        if any(b.attn.n_heads != first.attn.n_heads
-               or b.mlp[0].weight.shape != first.mlp[0].weight.shape for b in blocks):
-            raise ValueError("StackedBlocks needs blocks of one shape (d_model, ff, n_heads)")
+
+        def signature(b):
+            return (b.attn.n_heads, tuple(b.mlp[0].weight.shape), b.ln1.eps, b.ln2.eps,
+                    b.mlp[1].approximate)
+
+        if any(signature(b) != signature(first) for b in blocks):
+            raise ValueError(f"StackedBlocks needs blocks of one kind (n_heads, (ff, d_model), "
+                             f"LayerNorm eps, GELU): got {[signature(b) for b in blocks]}")
+        self.n_stacked = len(blocks)
         self.n_heads = first.attn.n_heads
         self.eps = (first.ln1.eps, first.ln2.eps)
+        self.gelu = first.mlp[1].approximate
+        self._params = [p for b in blocks for p in b.parameters()]
+        self._versions = [p._version for p in self._params]
 
         def stack(get, transpose=False):
             ts = [get(b).detach() for b in blocks]
             return torch.stack([t.T if transpose else t for t in ts]).contiguous()
 
-        self.ln = [(stack(lambda b, n=n: getattr(b, n).weight)[:, None, None],
-                    stack(lambda b, n=n: getattr(b, n).bias)[:, None, None])
-                   for n in ("ln1", "ln2")]                              # (S, 1, 1, C) each
-        linears = {"qkv": lambda b: b.attn.qkv, "proj": lambda b: b.attn.proj,
-                   "fc1": lambda b: b.mlp[0], "fc2": lambda b: b.mlp[2]}
-        self.w = {k: stack(lambda b, f=f: f(b).weight, transpose=True)   # (S, in, out)
-                  for k, f in linears.items()}
-        self.b = {k: stack(lambda b, f=f: f(b).bias)[:, None]            # (S, 1, out)
-                  for k, f in linears.items()}
+        # plain tensors even when built under torch.inference_mode(): the network-space
+        # guidance later differentiates through them
+        with torch.inference_mode(False), torch.no_grad():
+            self.ln = [(stack(lambda b, n=n: getattr(b, n).weight)[:, None, None],
+                        stack(lambda b, n=n: getattr(b, n).bias)[:, None, None])
+                       for n in ("ln1", "ln2")]                          # (S, 1, 1, C) each
+            linears = {"qkv": lambda b: b.attn.qkv, "proj": lambda b: b.attn.proj,
+                       "fc1": lambda b: b.mlp[0], "fc2": lambda b: b.mlp[2]}
+            self.w = {k: stack(lambda b, f=f: f(b).weight, transpose=True)  # (S, in, out)
+                      for k, f in linears.items()}
+            self.b = {k: stack(lambda b, f=f: f(b).bias)[:, None]        # (S, 1, out)
+                      for k, f in linears.items()}
+
+    def stale(self):
+        """True when a weight of the blocks changed after construction (an optimiser step,
+        ``load_state_dict``, any in-place write: each bumps the tensor's version counter)."""
+        return any(p._version != v for p, v in zip(self._params, self._versions))
 
     def _linear(self, name, x):                                            # (S, M, in)
         return torch.baddbmm(self.b[name], x, self.w[name])               # (S, M, out)
@@ -1055,48 +1081,59 @@ class StackedBlocks:
         y = (att.softmax(dim=-1) @ v).transpose(1, 2).reshape(S, B * L, C)
         h = h + self._linear("proj", y).view(S, B, L, C)
         x = F.layer_norm(h, (C,), eps=self.eps[1]) * g2 + b2
-        m = F.gelu(self._linear("fc1", x.reshape(S, B * L, C)))
+        m = F.gelu(self._linear("fc1", x.reshape(S, B * L, C)), approximate=self.gelu)
         return h + self._linear("fc2", m).view(S, B, L, C)
 
 
 class FusedControlledDenoiser:
     """:meth:`ControlledDenoiser.forward` for inference, with the blocks of one depth of all
-    its encoders run as one :class:`StackedBlocks` (same call, same output to float rounding;
-    about half the time of a controlled step at batch 1 on a CPU, ``benchmarks/bench_motion.py``).
+    its encoders run as one :class:`StackedBlocks`: the same call and the same output, to
+    float rounding. A networks-only clip takes 0.66x the time of the plain forward on one
+    thread of a 2-core AVX2 EPYC (``benchmarks/bench_motion.py``, the row "encoders one after
+    the other").
 
-    The sampler (:class:`~physlab.motion.sampling.Generator`) builds one per controlled
-    checkpoint. It snapshots the block weights: build a new one after changing the model's
-    weights. Gradients flow to the inputs (the network-space guidance needs them), not to
-    the snapshot.
+    The sampler (:class:`~physlab.motion.sampling.Generator`) runs one per controlled
+    checkpoint. The block weights are stacked copies, re-made at the next call whenever a
+    block weight has changed (:meth:`StackedBlocks.stale`); everything else (condition
+    encoders, token layers, zero layers, head, the sampler's low-pass settings) is read from
+    ``model`` at each call. Gradients flow to the inputs (the network-space guidance needs
+    them), not to the stacked copies. Keep :meth:`__call__` in step with
+    :meth:`ControlledDenoiser.forward`.
 
     Parameters
     ----------
-    model : :class:`ControlledDenoiser` in eval mode (dropout off), any variant.
+    model : :class:`ControlledDenoiser` in eval mode (dropout off), any Table 2 variant.
     """
 
     def __init__(self, model: ControlledDenoiser):
         if not isinstance(model, ControlledDenoiser):
             raise TypeError(f"model must be a ControlledDenoiser, got {type(model).__name__}")
-        if model.training:
+        if any(m.training for m in model.modules()):
             raise ValueError("FusedControlledDenoiser is for inference: call model.eval() first "
                              "(it has no dropout)")
         self.model = model
         self.config = model.config
-        encoders = [model.controlnet.encoder]
-        if model.adapter is not None:
-            encoders.append(model.adapter.encoder)
-        encoders.append(model.base.encoder)
+        self._stack()
+
+    def _stack(self):
+        m = self.model
+        encoders = [m.controlnet.encoder] + ([m.adapter.encoder] if m.adapter is not None
+                                             else []) + [m.base.encoder]
         self.layers = [StackedBlocks([e.blocks[i] for e in encoders])
-                       for i in range(len(model.base.encoder.blocks))]
+                       for i in range(len(m.base.encoder.blocks))]
 
     def __repr__(self):
         return (f"FusedControlledDenoiser(variant={self.model.variant!r}, "
-                f"encoders={len(self.layers[0].ln[0][0])}, layers={len(self.layers)})")
+                f"encoders={self.layers[0].n_stacked}, layers={len(self.layers)})")
 
     def __call__(self, x_t, t, text_emb, cond, drop_text=None):
+        """As :meth:`ControlledDenoiser.forward`: ``x_t`` (B, T, D), ``t`` (B,), ``text_emb``
+        (B, text_dim), a condition dict, ``drop_text`` None or (B,) bool -> (B, T, D)."""
         m = self.model
         _check_inputs(x_t, t, text_emb, self.config, drop_text)
         check_condition(cond, x_t.shape[0], self.config.n_joint_frames)
+        if any(layer.stale() for layer in self.layers):
+            self._stack()
         km = cond.get("keypose_mask")
         cn, ad, base = m.controlnet, m.adapter, m.base
         if m.single_controlnet:
@@ -1114,7 +1151,7 @@ class FusedControlledDenoiser:
         tokens.append(base.encoder.tokens(x_t, t, text_emb, drop_text))
         h = torch.stack(tokens)                                            # (S, B, 1+T, C)
         for i, layer in enumerate(self.layers):
-            h = layer(h)
+            h = layer(h)                                                   # (S, B, 1+T, C)
             r = cn.zero[i](h[0])                                           # Eq. (1): r_i
             if m.single_controlnet:
                 h = torch.stack([h[0], h[1] + r])

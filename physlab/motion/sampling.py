@@ -201,6 +201,9 @@ class Generator:
     text_cache : :class:`~physlab.motion.text.EmbeddingCache`; known action texts never load
         the text encoder (``text_cache.n_encoded`` counts encoded texts).
     stage : ``"base"`` | ``"control"``; path : Path of the checkpoint.
+    fused : bool (default True), run a control model's network as a
+        :class:`~physlab.motion.model.FusedControlledDenoiser` (:meth:`_controlled`); False:
+        the model's own forward (the same numbers to float rounding, slower).
     """
 
     def __init__(self, model, scheduler, stats, text_cache, stage, path=None):
@@ -208,8 +211,6 @@ class Generator:
         self.text_cache, self.stage, self.path = text_cache, stage, path
         self.config = model.config
         self.train_takes = ()   # Bandai-Namco takes trained on, when the checkpoint says
-        #: run a control model's network as a :class:`~physlab.motion.model.
-        #: FusedControlledDenoiser` (:meth:`_controlled`); False: its plain forward
         self.fused = True
         self._fused = None
 
@@ -309,15 +310,16 @@ class Generator:
     # -- network evaluation
 
     def _controlled(self, x, t, a, cond, drop):
-        """The controlled network's output, Eq. (4): :class:`~physlab.motion.model.
+        """The controlled network's output, Eq. (4), by a :class:`~physlab.motion.model.
         FusedControlledDenoiser` (the blocks of one depth of the ControlNet copy, the adapter
-        copy and the base as one batched computation; the same numbers to float rounding, about
-        1.4x faster per step on one thread). Built at the first call from the model's weights
-        at that time; with :attr:`fused` False, or a model put in training mode, the model's
+        copy and the base as one batched computation: the same numbers to float rounding, a
+        networks-only clip in 0.66x the time on one thread, ``benchmarks/bench_motion.py``).
+        Made at the first call, and again if :attr:`model` is replaced; it follows weight
+        changes itself. With :attr:`fused` False, or any module in training mode, the model's
         own forward runs."""
-        if self.model.training or not self.fused:
+        if not self.fused or any(m.training for m in self.model.modules()):
             return self.model(x, t, a, cond, drop)
-        if self._fused is None:
+        if self._fused is None or self._fused.model is not self.model:
             from .model import FusedControlledDenoiser
             self._fused = FusedControlledDenoiser(self.model)
         return self._fused(x, t, a, cond, drop)
@@ -493,11 +495,10 @@ class Generator:
                 g = g + joint_control_losses(joints, target_tr, cond)[0]        # Eq. (6)
             if has_key:
                 g = g + joint_control_losses(joints, target_key, cond)[1]       # Eq. (8)
-            if sketch is not None or loss_fn is not None:
-                if sketch is not None:                                       # Eq. (16)
-                    g = g + sum(sketch_losses(joints, sketch))
-                if loss_fn is not None:
-                    g = g + loss_fn(joints)
+            if sketch is not None:                                           # Eq. (16)
+                g = g + sum(sketch_losses(joints, sketch))
+            if loss_fn is not None:
+                g = g + loss_fn(joints)
             g.backward()
             return g
 

@@ -479,7 +479,8 @@ def test_fused_controlled_denoiser_equals_the_model(variant, head):
     computation: its output must equal ControlledDenoiser.forward (eval mode) for every
     Table 2 variant, with and without the control head, skip connection, text dropout, a
     missing keypose and precomputed condition embeddings, and so must the gradient with
-    respect to x_t (what the network-space guidance follows)."""
+    respect to x_t (what the network-space guidance follows). Batch 2 differs from the 3 or 2
+    stacked encoders, so a reshape that mixed them up would show."""
     from physlab.motion.diffusion import NoiseScheduler, SchedulerConfig
     from physlab.motion.model import FusedControlledDenoiser
 
@@ -490,9 +491,9 @@ def test_fused_controlled_denoiser_equals_the_model(variant, head):
                               double_controlnet=variant == "double", control_head=head)
     ctrl = _randomised(ctrl, 2).eval()
     fused = FusedControlledDenoiser(ctrl)
-    x, t, a, cond = _inputs(B=3, cfg=cfg)
-    cond["keypose_mask"] = torch.tensor([True, False, True])
-    drop = torch.tensor([False, True, False])
+    x, t, a, cond = _inputs(B=2, cfg=cfg)
+    cond["keypose_mask"] = torch.tensor([True, False])
+    drop = torch.tensor([False, True])
     conds = [cond]
     if variant != "single":
         with torch.no_grad():
@@ -500,7 +501,8 @@ def test_fused_controlled_denoiser_equals_the_model(variant, head):
     for c in conds:
         with torch.no_grad():
             ref, got = ctrl(x, t, a, c, drop), fused(x, t, a, c, drop)
-        assert float(ref.abs().max()) > 1.0                  # the branches act
+            plain = ctrl.base(x, t, a, drop)
+        assert float((ref - plain).abs().max()) > 0.1        # the branches act
         torch.testing.assert_close(got, ref, rtol=1e-5, atol=1e-5)
     grads = []
     for net in (ctrl, fused):
@@ -510,11 +512,64 @@ def test_fused_controlled_denoiser_equals_the_model(variant, head):
     torch.testing.assert_close(grads[1], grads[0], rtol=1e-4, atol=1e-4)
 
 
+@pytest.mark.parametrize("S", [1, 2])
+def test_stacked_blocks_equal_each_block(S):
+    """StackedBlocks on S blocks = each Block on its own slice (eval mode), batch 3."""
+    from physlab.motion.model import Block, StackedBlocks
+
+    blocks = [_randomised(Block(16, 2, 32, 0.1), 10 + i).eval() for i in range(S)]
+    h = torch.randn(S, 3, 5, 16, generator=torch.Generator().manual_seed(0))
+    with torch.no_grad():
+        got = StackedBlocks(blocks)(h)
+        ref = torch.stack([b(h[i]) for i, b in enumerate(blocks)])
+    torch.testing.assert_close(got, ref, rtol=1e-5, atol=1e-5)
+
+
+def test_stacked_blocks_refuse_mixed_or_no_blocks():
+    from physlab.motion.model import Block, StackedBlocks
+
+    with pytest.raises(ValueError, match="at least one"):
+        StackedBlocks([])
+    with pytest.raises(ValueError, match="one kind"):
+        StackedBlocks([Block(16, 2, 32, 0.0), Block(16, 2, 64, 0.0)])
+    tanh = Block(16, 2, 32, 0.0)
+    tanh.mlp[1] = torch.nn.GELU(approximate="tanh")
+    with pytest.raises(ValueError, match="GELU"):
+        StackedBlocks([Block(16, 2, 32, 0.0), tanh])
+
+
+def test_fused_controlled_denoiser_follows_weight_changes_and_inference_mode():
+    """The stacked weights are copies: after load_state_dict (or any in-place write) the next
+    call re-stacks them; built under torch.inference_mode() they still let gradients reach
+    the input (the network-space guidance)."""
+    from physlab.motion.model import FusedControlledDenoiser
+
+    cfg = DenoiserConfig(**TINY)
+    base = _randomised(MotionDenoiser(cfg), 1)
+    ctrl = _randomised(ControlledDenoiser(base), 2).eval()
+    x, t, a, cond = _inputs(B=2, cfg=cfg)
+    with torch.inference_mode():
+        fused = FusedControlledDenoiser(ctrl)
+        fused(x, t, a, cond)
+    other = _randomised(ControlledDenoiser(MotionDenoiser(cfg)), 3).eval()
+    ctrl.load_state_dict(other.state_dict())
+    with torch.no_grad():
+        torch.testing.assert_close(fused(x, t, a, cond), other(x, t, a, cond),
+                                   rtol=1e-5, atol=1e-5)
+    z = x.clone().requires_grad_(True)
+    fused(z, t, a, cond).sum().backward()
+    assert z.grad is not None and float(z.grad.abs().max()) > 0
+
+
 def test_fused_controlled_denoiser_refuses_training_mode_and_other_models():
     from physlab.motion.model import FusedControlledDenoiser
 
     base = MotionDenoiser(DenoiserConfig(**TINY))
     with pytest.raises(ValueError, match="eval"):
         FusedControlledDenoiser(ControlledDenoiser(base).train())
+    ctrl = ControlledDenoiser(base).eval()
+    ctrl.adapter.train()                                   # one branch with dropout on
+    with pytest.raises(ValueError, match="eval"):
+        FusedControlledDenoiser(ctrl)
     with pytest.raises(TypeError, match="ControlledDenoiser"):
         FusedControlledDenoiser(base)

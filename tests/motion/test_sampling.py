@@ -73,11 +73,11 @@ def test_the_conditions_are_encoded_once_per_clip(gen, text, monkeypatch, guidan
     assert len(calls) == 1, f"{len(calls)} encodings of one clip's conditions in {STEPS} steps"
 
 
-def test_the_sampler_runs_the_fused_network_with_the_same_result(ckpts, text):
+def test_the_sampler_runs_the_fused_network_with_the_same_result(ckpts, text, monkeypatch):
     """Generator runs a control model's network as a FusedControlledDenoiser (the blocks of
     one depth of all encoders batched); ``fused = False`` runs the model's own forward. The
-    networks-only clips agree to float rounding (zero layers randomised, so that the
-    ControlNet and adapter act)."""
+    clips agree to float rounding, networks only and with first-order guidance through the
+    network (zero layers randomised, so that the ControlNet and adapter act)."""
     from physlab.motion.model import FusedControlledDenoiser
 
     g = Generator.from_checkpoint(ckpts["control"])
@@ -85,14 +85,23 @@ def test_the_sampler_runs_the_fused_network_with_the_same_result(ckpts, text):
     with torch.no_grad():
         for z in [*g.model.controlnet.zero, *g.model.adapter.zero]:
             z.weight.copy_(torch.randn(z.weight.shape, generator=gen_t) * 0.3)
+    calls = []
+    run = FusedControlledDenoiser.__call__
+    monkeypatch.setattr(FusedControlledDenoiser, "__call__",
+                        lambda self, *a, **k: calls.append(1) or run(self, *a, **k))
+    variants = [dict(guidance_final=0),
+                dict(guidance_final=0, inference_guidance=2, guidance_space="network",
+                     guidance_optimizer="gradient")]
+    for kw in variants:
+        kw = dict(CONDITIONS["all_last"], steps=STEPS, **kw)
+        g.fused, n = True, len(calls)
+        fused = g(text, **kw)
+        assert len(calls) > n                                    # the fused network ran
+        g.fused, n = False, len(calls)
+        plain = g(text, **kw)
+        assert len(calls) == n                                   # ... and now it did not
+        np.testing.assert_allclose(fused, plain, atol=1e-4)
     kw = dict(CONDITIONS["all_last"], steps=STEPS, guidance_final=0)
-    fused = g(text, **kw)
-    assert isinstance(g._fused, FusedControlledDenoiser)
-    g.fused = False
-    plain = g(text, **kw)
-    g.fused = True
-    np.testing.assert_allclose(fused, plain, atol=1e-4)
-    g.fused = False
     unzeroed = Generator.from_checkpoint(ckpts["control"])(text, **kw)
     assert np.abs(plain - unzeroed).max() > 1e-3              # the randomised layers act
 

@@ -92,6 +92,13 @@ def test_control_losses_zero_at_ground_truth_and_analytic_shift():
     assert TRAJECTORY_JOINTS[0] == 0
     assert torch.allclose(l_tr, (0.01 * pelvis_share).mean())
     assert torch.allclose(l_key, torch.tensor(21 * 0.01, dtype=torch.float64))
+    # the guidance decodes x̂₀ once and reads both losses from the joints
+    from physlab.motion.guidance import joint_control_losses
+    from physlab.motion.model import features_to_joints_torch
+
+    pred = features_to_joints_torch(shifted)
+    for got, want in zip(joint_control_losses(pred, joints, cond), (l_tr, l_key)):
+        torch.testing.assert_close(got, want)
 
 
 def test_projected_trajectory_loss_is_the_drawn_error_and_ignores_depth():
