@@ -67,7 +67,7 @@ sphere embedding, so not comparable with HumanML3D numbers.
 Usage::
 
     python -m physlab.motion.evaluate --control runs/control.pt \\
-        [--single-controlnet runs/single.pt] [--double-controlnet runs/double.pt] [--windows 64] [--steps 50] [--guidance 2.5] [--control-guidance 1] \\
+        [--single-controlnet runs/single.pt] [--double-controlnet runs/double.pt] [--windows 64] [--steps 25] [--guidance 2.5] [--control-guidance 1] \\
         [--seed 0] [--out runs/eval] [--no-progress] [--pose-detail]
 
     from physlab.motion.evaluate import evaluate
@@ -472,6 +472,18 @@ def _load(path, flag, need_control=True):
     return gen
 
 
+def _steps(steps):
+    """``steps`` checked: an int >= 1, or None for ``generate``'s default
+    (:data:`~physlab.motion.sampling.DEFAULT_STEPS`), which every row then uses."""
+    if steps is None:
+        from .sampling import DEFAULT_STEPS
+        return DEFAULT_STEPS
+    if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps < 1:
+        raise ValueError(f"steps must be None (generate's default) or an integer >= 1 (e.g. "
+                         f"50 DDIM steps), got {steps!r}")
+    return int(steps)
+
+
 def _sample(gen, data, conds, controlled, steps, guidance, seed, progress, label,
             options=None, body_constraints=True, foot_lock=True, frequencies=None):
     """Generate one clip per window; ``options`` are the guidance options of a controlled
@@ -523,7 +535,7 @@ def _check_scale(name, value, hint=""):
         raise ValueError(f"{name} must be a finite number >= 0{hint}, got {value!r}")
 
 
-def evaluate(control, single_controlnet=None, windows=64, steps=50, guidance=2.5, seed=0,
+def evaluate(control, single_controlnet=None, windows=64, steps=None, guidance=2.5, seed=0,
              out=None, progress=True, data_root=None, body_constraints=True,
              control_guidance=1.0, guidance_variants=False, evaluator="default",
              foot_lock=True, frequencies=None, double_controlnet=None, pose_detail=False,
@@ -539,7 +551,8 @@ def evaluate(control, single_controlnet=None, windows=64, steps=50, guidance=2.5
     single_controlnet, double_controlnet : None or paths of ``--single-controlnet`` /
         ``--double-controlnet`` control checkpoints (Table 2's ablations).
     windows : int >= 1, held-out windows evaluated.
-    steps : int >= 1, DDIM steps; guidance : float >= 0, text CFG scale w (Eq. (14)) of the
+    steps : None (``generate``'s default, :data:`~physlab.motion.sampling.DEFAULT_STEPS`) or
+        int >= 1, DDIM steps; guidance : float >= 0, text CFG scale w (Eq. (14)) of the
     text-only row; control_guidance : float >= 0, the text scale of the controlled rows
     (the generator's default under control, :data:`~physlab.motion.sampling.
     CONTROL_TEXT_GUIDANCE`).
@@ -575,8 +588,7 @@ def evaluate(control, single_controlnet=None, windows=64, steps=50, guidance=2.5
     evaluator, of :data:`EVALUATOR_COLUMNS` plus ``r_precision_chance_top3``.
     """
     n = _check_windows(windows)
-    if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps < 1:
-        raise ValueError(f"steps must be an integer >= 1 (e.g. 50 DDIM steps), got {steps!r}")
+    steps = _steps(steps)
     _check_scale("guidance", guidance, " (Sketch2Anim uses 7.5)")
     gens = {"keypose + trajectory": _load(control, "--control")}
     for flag, path in (("--single-controlnet", single_controlnet),
@@ -709,7 +721,7 @@ def motion_statistics(joints, fps=20.0):
     return np.stack([d[:, 2], d[:, 0], path / duration, hand, wrist], axis=1)
 
 
-def text_adherence(control, contents=ADHERENCE_CONTENTS, seeds=4, steps=50, guidance=2.5,
+def text_adherence(control, contents=ADHERENCE_CONTENTS, seeds=4, steps=None, guidance=2.5,
                    progress=True, data_root=None, frequencies=None):
     """Does the text-only generator do what the action word says? (Next to the evaluator's
     R-precision, this says *what* differs: travel, speed, hand height.)
@@ -732,6 +744,8 @@ def text_adherence(control, contents=ADHERENCE_CONTENTS, seeds=4, steps=50, guid
     foot skating over the real windows of the contents and over every generated clip).
     """
     from tqdm.auto import tqdm
+
+    steps = _steps(steps)
 
     contents = tuple(contents)
     unknown = [c for c in contents if c not in ACTION_PHRASES]
@@ -958,7 +972,7 @@ def draw_conditions(conds, seed=0, noise=0.0):
     return cams, sketches
 
 
-def evaluate_sketch(control, windows=64, steps=50, seed=0, noise=0.0, progress=True,
+def evaluate_sketch(control, windows=64, steps=None, seed=0, noise=0.0, progress=True,
                     data_root=None, out=None, protocol="cross", lifter=None, direct_2d=None,
                     retrieval=False, evaluator=None, guidance_only=False,
                     guidance_variants=False):
@@ -987,7 +1001,7 @@ def evaluate_sketch(control, windows=64, steps=50, seed=0, noise=0.0, progress=T
     data = held_out_windows(n, data_root=data_root)
     conds = sketch_conditions(data["joints"], protocol, seed=seed)
     cams, sketches = draw_conditions(conds, seed=seed, noise=noise)
-    kw = {"steps": int(steps), "seed": int(seed), "progress": progress}
+    kw = {"steps": _steps(steps), "seed": int(seed), "progress": progress}
     text_motion = _text_motion_metrics(evaluator, data, seed)
 
     def metrics(x, s=0.0):
@@ -1050,7 +1064,7 @@ def evaluate_sketch(control, windows=64, steps=50, seed=0, noise=0.0, progress=T
     return rows
 
 
-def evaluate_alignment_ablation(variants, windows=64, steps=50, seed=0, noise=0.0,
+def evaluate_alignment_ablation(variants, windows=64, steps=None, seed=0, noise=0.0,
                                 progress=True, data_root=None, protocol="cross",
                                 evaluator=None, out=None):
     """Table A2's analogue: the networks alone (no inference guidance, as the paper's
@@ -1075,7 +1089,7 @@ def evaluate_alignment_ablation(variants, windows=64, steps=50, seed=0, noise=0.
     rows = {}
     for name, g in gens.items():
         x, s = _sample(g, data, sketches, True, label=name, options=UNGUIDED,
-                       guidance=CONTROL_TEXT_GUIDANCE, steps=int(steps), seed=int(seed),
+                       guidance=CONTROL_TEXT_GUIDANCE, steps=_steps(steps), seed=int(seed),
                        progress=progress)
         rows[name] = {**sketch_metrics(x, conds, cams, s), **text_motion(x)}
     if out is not None:
@@ -1284,7 +1298,8 @@ def _parser():
                    help="optional double-ControlNet control checkpoint (Table 2 ablation: "
                         "train --stage control --double-controlnet)")
     p.add_argument("--windows", type=int, default=64, help="held-out windows (default 64)")
-    p.add_argument("--steps", type=int, default=50, help="DDIM steps (default 50)")
+    p.add_argument("--steps", type=int, default=None,
+                   help="DDIM steps (default: generate's, physlab.motion.sampling.DEFAULT_STEPS)")
     p.add_argument("--guidance", type=float, default=2.5,
                    help="text CFG scale of the text-only row (default 2.5, the generator's)")
     p.add_argument("--control-guidance", type=float, default=1.0,

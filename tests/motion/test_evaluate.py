@@ -220,9 +220,24 @@ def test_bad_window_count(ckpts, bad):
         evaluate(ckpts["control"], windows=bad, steps=2, progress=False)
 
 
+def test_default_steps_are_generates():
+    """Every evaluation samples with generate's default DDIM steps unless told otherwise."""
+    import inspect
+
+    from physlab.motion import evaluate as E
+    from physlab.motion.sampling import DEFAULT_STEPS
+
+    assert E._steps(None) == DEFAULT_STEPS and E._steps(7) == 7
+    for fn in (E.evaluate, E.text_adherence, E.evaluate_sketch, E.evaluate_alignment_ablation):
+        assert inspect.signature(fn).parameters["steps"].default is None, fn.__name__
+    assert E._parser().parse_args(["--control", "x.pt"]).steps is None
+
+
 def test_bad_steps_and_guidance(ckpts):
     with pytest.raises(ValueError, match="steps"):
         evaluate(ckpts["control"], windows=1, steps=0)
+    with pytest.raises(ValueError, match="steps must be None"):
+        evaluate(ckpts["control"], windows=1, steps=2.5)
     with pytest.raises(ValueError, match="guidance"):
         evaluate(ckpts["control"], windows=1, guidance=float("nan"))
 
