@@ -1088,7 +1088,7 @@ class StackedBlocks:
 class FusedControlledDenoiser:
     """:meth:`ControlledDenoiser.forward` for inference, with the blocks of one depth of all
     its encoders run as one :class:`StackedBlocks`: the same call and the same output, to
-    float rounding. A networks-only clip takes 0.66x the time of the plain forward on one
+    float rounding. A networks-only clip takes 0.66–0.84x the time of the plain forward on one
     thread of a 2-core AVX2 EPYC (``benchmarks/bench_motion.py``, the row "encoders one after
     the other").
 

@@ -313,7 +313,7 @@ class Generator:
         """The controlled network's output, Eq. (4), by a :class:`~physlab.motion.model.
         FusedControlledDenoiser` (the blocks of one depth of the ControlNet copy, the adapter
         copy and the base as one batched computation: the same numbers to float rounding, a
-        networks-only clip in 0.66x the time on one thread, ``benchmarks/bench_motion.py``).
+        networks-only clip in 0.66–0.84x the time on one thread, ``benchmarks/bench_motion.py``).
         Made at the first call, and again if :attr:`model` is replaced; it follows weight
         changes itself. With :attr:`fused` False, or any module in training mode, the model's
         own forward runs."""
