@@ -172,7 +172,8 @@ def _parser():
     g.add_argument("--seed", type=int, default=0)
     g.add_argument("--guidance-scale", type=float, default=None,
                    help="text CFG scale w (default 2.5, or 1 with --keypose/--trajectory)")
-    g.add_argument("--steps", type=int, default=50, help="DDIM steps")
+    g.add_argument("--steps", type=int, default=None,
+                   help="DDIM steps (default: generate's, physlab.motion.sampling.DEFAULT_STEPS)")
     g.add_argument("--checkpoint", default=None, help="default: the shipped control checkpoint")
     g.add_argument("--out", required=True, help=".bvh (Blender), .gif or .npy (joints)")
     t = sub.add_parser("train", help="train a model: physlab train motion ...",

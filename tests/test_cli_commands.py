@@ -186,6 +186,25 @@ def test_generate_writes_a_clip(tmp_path, suffix, capsys):
         assert read_bvh(out).n_frames == 40
 
 
+def test_generate_takes_generates_default_steps(tmp_path, capsys, monkeypatch):
+    """Without --steps, `physlab generate` samples as generate() does by default."""
+    import physlab.motion
+
+    seen = {}
+
+    def fake(action, **kw):
+        seen.update(kw)
+        return np.zeros((40, 22, 3))
+
+    monkeypatch.setattr(physlab.motion, "generate", fake)
+    out = tmp_path / "walk.npy"
+    status, _, err = _run(["generate", "a person walks", "--out", str(out)], capsys)
+    assert status == 0, err
+    assert seen["steps"] is None                    # generate() then uses DEFAULT_STEPS
+    _run(["generate", "a person walks", "--steps", "7", "--out", str(out)], capsys)
+    assert seen["steps"] == 7
+
+
 @pytest.mark.filterwarnings("ignore:the BVH reproduces the joints only")
 def test_generate_from_a_2d_sketch(tmp_path, capsys):
     """A pelvis path drawn in a 3/4 view (normalised image units) and --camera: the clip's
