@@ -38,7 +38,9 @@ What is measured
    instead of the blocks of one depth batched (:class:`~physlab.motion.model.
    FusedControlledDenoiser`).
    The paper reports 0.427 s per clip on an RTX 4090, guidance included (printed for
-   orientation). Target (issue 12): a guided clip in at most 0.5 s on one thread.
+   orientation). Target (issue 12): a guided clip in at most 0.5 s on one thread. Then a
+   3-frame storyboard (generation and two blends; target 5 s) and the sketch-overlay frames
+   of its animation (:func:`physlab.viz.storyboard_view.sketch_overlay_frames`; target 5 s).
 3. **Peak memory**: the process's maximum resident set size, and the checkpoint sizes.
 """
 from __future__ import annotations
@@ -57,6 +59,8 @@ PAPER_SECONDS_PER_CLIP = 0.427   # Sketch2Anim, RTX 4090, with guidance
 TARGET_SECONDS_PER_CLIP = 0.5
 #: Issue 14: seconds for a 3-frame storyboard (generation + 2 blends) on one thread.
 TARGET_SECONDS_PER_STORYBOARD = 5.0
+#: Drawing the sketch-overlay frames of that storyboard (every frame, 320² px).
+TARGET_SECONDS_OVERLAY = 5.0
 
 
 def _parser():
@@ -191,6 +195,10 @@ def main(argv=None):
         t_board = {m: _time(lambda: animate_storyboard(board, checkpoint=path, steps=steps,
                                                        method=m), args.repeats)
                    for m in ("inversion", "linear")}
+        from physlab.viz.storyboard_view import sketch_overlay_frames
+
+        anim = animate_storyboard(board, checkpoint=path, steps=steps, method="linear")
+        t_overlay = _time(lambda: sketch_overlay_frames(board, anim), args.repeats)
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024  # KiB -> MiB on Linux
     print(f"motion generator: training on {args.threads} thread(s), sampling on "
           f"{args.sample_threads}; model d_model={gen.config.d_model}, {gen.config.n_layers} blocks")
@@ -226,6 +234,9 @@ def main(argv=None):
     for m, t in t_board.items():
         print(f"3-frame storyboard, generation + 2 {m} blends (median of {args.repeats}) | "
               f"{t:.3f} s (target <= {TARGET_SECONDS_PER_STORYBOARD} s)")
+    print(f"sketch-overlay frames of that storyboard's {len(anim.joints)} frames "
+          f"(physlab.viz.storyboard_view) | {t_overlay:.3f} s (target < "
+          f"{TARGET_SECONDS_OVERLAY} s)")
     print(f"checkpoints base / control (resumable, with optimizer) | {sizes['base']:.1f} / "
           f"{sizes['control']:.1f} MiB")
     print(f"peak resident memory | {peak:.0f} MiB")
@@ -237,7 +248,8 @@ def main(argv=None):
                seconds_control=t_ctrl, seconds_unfused=t_unfused, seconds_guided=t_guided,
                seconds_variants=t_variants,
                seconds_reference=t_ref, seconds_sketch=t_sketch, peak_mib=peak,
-               checkpoint_mib=sizes, seconds_storyboard=t_board, dropout_windows_per_s=dropout,
+               checkpoint_mib=sizes, seconds_storyboard=t_board, seconds_overlay=t_overlay,
+               dropout_windows_per_s=dropout,
                auto_precision=prec)
     return out
 

@@ -331,13 +331,10 @@ def test_scan_finds_shots_whose_key_overlaps(real_data):
 
 @pytest.mark.parametrize("truth", evaluate.OCCLUDED_TRUTHS)
 def test_occluded_drawing_route_small(real_data, tmp_path, truth):
-    import time
-
+    # (its speed is benchmarks/bench_inbetween.py --occluded's business, not a test's)
     shot = {"char4_dab": evaluate.AD_OCCLUDED_SHOTS["char4_dab"]}
-    tic = time.perf_counter()
     r = evaluate.evaluate_occluded_drawings(shot, size=96, n_frames=3, out=tmp_path,
                                             progress=False, max_iter=300, truth=truth)
-    assert time.perf_counter() - tic < 30
     assert {row["truth"] for row in r["rows"]} == {truth}
     methods = {row["method"] for row in r["rows"]}
     assert methods == set(evaluate.METHODS) | {evaluate.SINGLE_SHEET}

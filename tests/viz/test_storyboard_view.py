@@ -2,7 +2,6 @@
 BVH check. One example animation (3 frames, 160 frames) is generated per module (~3 s)."""
 import dataclasses
 import json
-import time
 import warnings
 from pathlib import Path
 
@@ -53,9 +52,7 @@ def anim(board):
 
 @pytest.fixture(scope="module")
 def overlay(board, anim):
-    t0 = time.perf_counter()
-    frames = sketch_overlay_frames(board, anim)
-    return frames, time.perf_counter() - t0
+    return sketch_overlay_frames(board, anim)
 
 
 def _mask(img, color, tol=40):
@@ -181,11 +178,10 @@ def test_contact_sheet_every(board, anim):
 # ----------------------------------------------------------------------------- overlay frames
 
 
-def test_overlay_shape_speed_and_pose_pixels(board, anim, overlay):
-    frames, seconds = overlay
+def test_overlay_shape_and_pose_pixels(board, anim, overlay):
+    frames = overlay                      # its speed: benchmarks/bench_motion.py
     N = len(anim.joints)
     assert frames.shape == (N, 320, 320, 3) and frames.dtype == np.uint8
-    assert seconds < 5.0
     for k in (0, 25, 50, 75, 130, N - 1):
         for j in (0, 15):                                        # pelvis dot, head circle
             xy = overlay_pixel(board, anim, k, joint=j)
@@ -203,7 +199,7 @@ def test_overlay_shape_speed_and_pose_pixels(board, anim, overlay):
 def test_overlay_places_the_pose_on_the_canvas(board, anim, overlay):
     """Independent of the library's fit: find the drawn canvas border in the picture, map the
     sketch-pixel pelvis through it and find the blue pelvis there."""
-    frames, _ = overlay
+    frames = overlay
     sk = board.frames[0].sketch
     origin, ppu = sk.pixel_frame(*sk.trajectories_px())
     f = frames[0].astype(int)
