@@ -950,6 +950,19 @@ class ControlledDenoiser(nn.Module):
             e_k = self.adapter.keypose_encoder(cond["keypose"], cond["key_frame"])
         return e_tr, e_k
 
+    def branch_embeddings(self, cond, batch):
+        """What the branches add to their tokens: ``(e_tr, e_k)`` — the unified condition
+        embedding and None for the single-ControlNet ablation, else ``cond["embeddings"]``
+        when the sampler made them once per clip (checked), or :meth:`condition_embeddings`.
+        Shared by :meth:`forward` and :class:`FusedControlledDenoiser`."""
+        if self.single_controlnet:
+            frames = unified_frames(cond["trajectory"], cond["traj_mask"], cond["keypose"],
+                                    cond["key_frame"], cond.get("keypose_mask"))
+            return self.controlnet.cond_encoder(frames), None
+        if "embeddings" in cond:
+            return self._given_embeddings(cond, batch)
+        return self.condition_embeddings(cond)
+
     def _given_embeddings(self, cond, batch):
         """``cond["embeddings"]`` checked: ``(e_tr (B, T, C), e_k (B, C))``."""
         emb = cond["embeddings"]
@@ -976,16 +989,12 @@ class ControlledDenoiser(nn.Module):
         :class:`FusedControlledDenoiser` computes the same for inference: keep the two in step."""
         _check_inputs(x_t, t, text_emb, self.config, drop_text)
         check_condition(cond, x_t.shape[0], self.config.n_joint_frames)
-        traj, mask = cond["trajectory"], cond["traj_mask"]
         km = cond.get("keypose_mask")
+        e_tr, e_k = self.branch_embeddings(cond, x_t.shape[0])
         if self.single_controlnet:
-            frames = unified_frames(traj, mask, cond["keypose"], cond["key_frame"], km)
-            res, hidden = self.controlnet.from_embedding(
-                x_t, t, text_emb, self.controlnet.cond_encoder(frames), drop_text,
-                with_hidden=True)
+            res, hidden = self.controlnet.from_embedding(x_t, t, text_emb, e_tr, drop_text,
+                                                         with_hidden=True)
         else:
-            e_tr, e_k = (self._given_embeddings(cond, x_t.shape[0]) if "embeddings" in cond
-                         else self.condition_embeddings(cond))
             r, h_r = self.controlnet.from_embedding(x_t, t, text_emb, e_tr, drop_text,
                                                     with_hidden=True)
             if self.double_controlnet:                     # two parallel ControlNets: r + r'
@@ -1136,18 +1145,12 @@ class FusedControlledDenoiser:
             self._stack()
         km = cond.get("keypose_mask")
         cn, ad, base = m.controlnet, m.adapter, m.base
-        if m.single_controlnet:
-            frames = unified_frames(cond["trajectory"], cond["traj_mask"], cond["keypose"],
-                                    cond["key_frame"], km)
-            tokens = [cn.encoder.tokens(x_t, t, text_emb, drop_text,
-                                        motion_extra=cn.cond_encoder(frames))]
-        else:
-            e_tr, e_k = (m._given_embeddings(cond, x_t.shape[0]) if "embeddings" in cond
-                         else m.condition_embeddings(cond))
+        e_tr, e_k = m.branch_embeddings(cond, x_t.shape[0])
+        tokens = [cn.encoder.tokens(x_t, t, text_emb, drop_text, motion_extra=e_tr)]
+        if not m.single_controlnet:
             if km is not None:                                             # no keypose: a' = a
                 e_k = e_k * km.to(e_k.dtype)[:, None]
-            tokens = [cn.encoder.tokens(x_t, t, text_emb, drop_text, motion_extra=e_tr),
-                      ad.encoder.tokens(x_t, t, text_emb, drop_text, cond_extra=e_k)]
+            tokens.append(ad.encoder.tokens(x_t, t, text_emb, drop_text, cond_extra=e_k))
         tokens.append(base.encoder.tokens(x_t, t, text_emb, drop_text))
         h = torch.stack(tokens)                                            # (S, B, 1+T, C)
         for i, layer in enumerate(self.layers):
