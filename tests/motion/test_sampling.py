@@ -101,6 +101,11 @@ def test_the_sampler_runs_the_fused_network_with_the_same_result(ckpts, text, mo
         plain = g(text, **kw)
         assert len(calls) == n                                   # ... and now it did not
         np.testing.assert_allclose(fused, plain, atol=1e-4)
+    g.fused, n = True, len(calls)
+    g.model.adapter.train()                    # a module in training mode: the plain forward
+    g(text, **dict(CONDITIONS["all_last"], steps=STEPS, guidance_final=0))
+    assert len(calls) == n
+    g.model.eval()
     kw = dict(CONDITIONS["all_last"], steps=STEPS, guidance_final=0)
     unzeroed = Generator.from_checkpoint(ckpts["control"])(text, **kw)
     assert np.abs(plain - unzeroed).max() > 1e-3              # the randomised layers act
