@@ -11,7 +11,7 @@ import pytest
 import torch
 import torch.nn.functional as F
 
-from physlab.motion.align import alignment_losses, sketch_batch
+from physlab.motion.align import _info_nce, alignment_losses, sketch_batch
 from physlab.motion.camera import Camera
 from physlab.motion.dataset import TRAJECTORY_JOINTS
 from physlab.motion.model import (ControlledDenoiser, DenoiserConfig, MotionDenoiser,
@@ -128,3 +128,35 @@ def test_2d_conditions_need_encoders_and_a_camera():
     out3d = m(x, t, a, cond)
     assert out2d.shape == out3d.shape and not torch.allclose(out2d, out3d)
     assert len(TRAJECTORY_JOINTS) == sk["trajectory_2d"].shape[2]
+
+
+def test_alignment_losses_encode_the_drawing_once_with_the_gradient_of_eq_13():
+    """L_recon reuses the 2D embeddings of L_match (one pass of the 2D encoders per batch):
+    the loss and the 2D encoders' gradients equal Eq. (13) written out with the generator
+    encoding the drawing itself."""
+    cond, rng = _cond()
+    sk = sketch_batch(cond, rng)
+    x_t = torch.randn(4, CFG.n_frames, CFG.feature_dim)
+    t = torch.tensor([10, 100, 400, 900])
+    a = torch.randn(4, CFG.text_dim)
+    target = torch.randn_like(x_t)
+    model = _model()
+    calls = []
+    run = model.sketch_traj_encoder.forward
+    model.sketch_traj_encoder.forward = lambda *args: calls.append(1) or run(*args)
+    terms = alignment_losses(model, x_t, t, a, cond, sk, target, tau=0.1)
+    assert len(calls) == 1
+    sum(terms.values()).backward()
+    got = {n: p.grad.clone() for n, p in model.named_parameters() if n.startswith("sketch_")}
+    ref = _model()
+    s3_tr, s3_k = ref.condition_embeddings(cond)
+    s2_tr, s2_k = ref.condition_embeddings({**cond, **sk})
+    s3_tr, s3_k = s3_tr.detach(), s3_k.detach()
+    want = (F.mse_loss(s2_tr, s3_tr) + F.mse_loss(s2_k, s3_k)                       # (10)
+            + F.mse_loss(ref(x_t, t, a, {**cond, **sk}), target)                     # (11)
+            + _info_nce(s3_tr.mean(1), s2_tr.mean(1), 0.1) + _info_nce(s3_k, s2_k, 0.1))
+    torch.testing.assert_close(sum(terms.values()).detach(), want.detach())
+    want.backward()
+    for n, p in ref.named_parameters():
+        if n.startswith("sketch_"):
+            torch.testing.assert_close(got[n], p.grad, rtol=1e-4, atol=1e-6, msg=n)
