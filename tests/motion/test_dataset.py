@@ -341,7 +341,7 @@ def test_turn_windows_turn_the_body_and_its_path_progressively(clips):
     np.testing.assert_allclose(((ang + extra[:, 1:] + 180) % 360 - 180)[moving], 0, atol=1e-6)
     # a toe swings round the pelvis by at most the frame's turn times its distance from the
     # pelvis, on top of its own turned step: a few mm per frame, so the copies hardly skate
-    # more than the originals (README, "Where the pose error sits")
+    # more than the originals (docs/motion_experiments.md, "Where the pose error sits")
     from physlab.motion.metrics import foot_skating_ratio
 
     dth = np.radians(np.abs(theta)) / 39                                    # (n,) rad / frame

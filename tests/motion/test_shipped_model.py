@@ -31,7 +31,8 @@ SHIPPED = [DEFAULT_CHECKPOINT, SINGLE, LIFTER]
 TRAJ_LIMIT, KEY_LIMIT, POSE_LIMIT, TRAJ_GAIN, KEY_GAIN, POSE_GAIN = 0.15, 0.10, 0.05, 1.8, 2.5, 2.5
 #: Largest joint step where a partial stroke starts or ends, over the clip's median step, of
 #: guided clips: issue 12's bound (measured 2.50 here; on 64 windows at 50 steps 2.67, every
-#: clip below 3; models shipped before had one clip of 63 at 3.34, README). The networks
+#: clip below 3; models shipped before had one clip of 63 at 3.34,
+#: docs/motion_experiments.md). The networks
 #: alone jump more there (2.63 here, 4.0 on 64 windows; real clips 6.0): not asserted, in the
 #: README.
 EDGE_LIMIT = 3.0
@@ -255,7 +256,7 @@ def test_denoise_from_keeps_the_clip_at_low_noise_and_forgets_it_from_pure_noise
                                                                                   real_data):
     """:meth:`Generator.denoise_from` noises a real clip to a level and denoises it back: at
     level 0 the shipped network returns a clip near the given one (mean joint error 0.15 m,
-    measured 2026-11-26: the damping README's issue-12 section describes; a base with the skip
+    measured 2026-11-26: the damping docs/motion_experiments.md describes; a base with the skip
     connection, 0.02 m), from pure noise one of its own (0.54 m)."""
     win = make_windows(split_by_take(load_clips(contents=["walk"]))[1], length=40, stride=40)
     J = win.joints[0]
