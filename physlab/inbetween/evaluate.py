@@ -779,7 +779,7 @@ class OccludedDrawingPair:
     rest_widths : bool, give each bone's capsule the half-width its limb is drawn with in the
         character's rest drawing (:func:`~physlab.inbetween.occlusion.bone_widths`) instead of
         one radius for all bones (default False: on these four shots the drawn widths lost
-        0.6 dB at t = 0.5 and 1.6 dB over the sequence, README).
+        0.6 dB at t = 0.5 and 1.6 dB over the sequence, docs/occlusion_experiments.md).
     truth : :data:`OCCLUDED_TRUTHS` ``"sheet"`` (default: the posed one-sheet template) or
         ``"parts"`` (the cut-out paper doll).
     regions : ``"capsule"`` (the capsule overlaps) or ``"contact"`` (each limb's region grown

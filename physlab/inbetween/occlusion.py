@@ -1810,7 +1810,7 @@ def _contact_regions(capsule_regions, skeleton, fg, radius, widths, t_junctions,
         # by default the limb's bone and the bones below it only (up=False): with the upper
         # arm in the region too, the layered run of a forearm folded back across the chest
         # (AnimatedDrawings char1, zombie) explodes (handle error 36 px), with the handles
-        # split by depth gap or by bone (by_limb: 42 px) alike (README)
+        # split by depth gap or by bone (by_limb: 42 px) alike (docs/occlusion_experiments.md)
         region, tj = limb_contact(skeleton, limb, fg, widths.get(limb, radius), seed=seed,
                                   up=up)
         if not region.any():
