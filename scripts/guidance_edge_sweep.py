@@ -4,7 +4,8 @@ Issue 12 bounds the step where a partial trajectory starts or ends at 3x the cli
 step; the x̂₀ guidance carries a hinge on it (``physlab.motion.sampling.GUIDANCE_EDGES``
 λ_e, ``EDGE_STEP`` c_e). This prints, per ``λ_e,c_e`` pair, the worst and count of clips over
 2.5 and 3 (``metrics.boundary_step_ratio``), the worst ``boundary_jump_ratio``, and the guided
-errors, so the trade-off can be re-measured (docs/motion_experiments.md, "No jump where a stroke ends")::
+errors, so the trade-off can be re-measured (``docs/motion_experiments.md``, "No jump where a
+stroke ends")::
 
     python scripts/guidance_edge_sweep.py [--control CKPT] [--seed S] 10,2.5 100,2.5 1000,2.5
 """

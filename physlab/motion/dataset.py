@@ -453,8 +453,9 @@ def turn_windows(windows, max_degrees=90.0, seed=0):
     by at most the frame's turn times its reach (a few mm per frame), so the copies skate about
     as little as the originals. Measured on held-out windows
     (``docs/motion_experiments.md``, "Where the pose error sits"): the text of a Bandai-Namco
-    window implies its turn, so networks trained without this follow a last-frame keypose's facing only about a third of the way; with it (90°)
-    more than half of the way, though their clips then skate and jerk more.
+    window implies its turn, so networks trained without this follow a last-frame keypose's
+    facing only about a third of the way; with it (90°) more than half of the way, though
+    their clips then skate and jerk more.
 
     Parameters
     ----------
