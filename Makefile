@@ -98,6 +98,9 @@ bench: $(STAMP)
 # AVX2-only EPYC without AVX512-BF16 (2026-11-28; fp32 via MOTION_PRECISION=auto) the base
 # stage ran at 225 windows/s and the control stage at 88: the retrain takes 3-4x as long.
 # Resumable: rerun after an interruption (Ctrl-C or `kill` writes a checkpoint).
+# The text base (EDM skip connection on the pose, action-balanced, 4x velocity loss) samples
+# text-only requests; it is attached to the exported control checkpoint (physlab.motion.
+# checkpoint.attach_text_model; data/motion/README.md says why).
 # Full-precision checkpoints stay in $(MOTION_RUNS); $(MOTION_EXPORT) gets the fp16 inference
 # copies (set MOTION_EXPORT=runs/x to retrain beside the shipped models and compare).
 # MOTION_PRECISION=auto (default) runs the forward passes in bfloat16 autocast (weights,
@@ -134,6 +137,10 @@ motion-model: $(STAMP) motion-evaluator
 	$(MOTION_TRAIN) --stage align --steps 15000 --single-joint 0.25 --lambda-tr-2d 8 \
 		--base-ckpt $(MOTION_RUNS)/control.pt \
 		--out $(MOTION_RUNS)/align.pt --export $(MOTION_EXPORT)/sketch2anim_control.pt
+	$(MOTION_TRAIN) --stage base --steps 10000 --skip --no-skip-pelvis --snr-cap 10 \
+		--balance 0.5 --lambda-vel 4 --out $(MOTION_RUNS)/text_base.pt
+	$(PY) -m physlab.motion.checkpoint attach-text $(MOTION_EXPORT)/sketch2anim_control.pt \
+		$(MOTION_RUNS)/text_base.pt
 	$(PY) -m physlab.motion.baselines train-lifter --steps 3000 --num-threads 2 \
 		--out $(MOTION_RUNS)/lifter.pt --export $(MOTION_EXPORT)/sketch_lifter.pt
 

@@ -3,8 +3,10 @@
 A checkpoint (``torch.save`` dict, written atomically) holds everything needed to generate
 and to resume: ``kind`` / ``version``, ``stage``, ``model_config``, ``train_config``,
 ``model`` (state dict), ``optimizer``, ``step``, per-rank ``rng`` states, ``feature_stats``,
-``scheduler``, ``text_cache``, ``param_digests``, ``train_takes``. Reading never runs code
-from the file (``torch.load(weights_only=True)``); numpy arrays are stored as tagged tensors.
+``scheduler``, ``text_cache``, ``param_digests``, ``train_takes``, and in a shipped control
+checkpoint optionally ``text_model`` (:func:`attach_text_model`: a separate base for text-only
+requests). Reading never runs code from the file (``torch.load(weights_only=True)``); numpy
+arrays are stored as tagged tensors.
 Used by both :mod:`physlab.motion.train` and :mod:`physlab.motion.sampling` (sampling does
 not depend on training).
 """
@@ -23,7 +25,7 @@ from .features import FeatureStats
 from .model import ControlledDenoiser, DenoiserConfig, MotionDenoiser
 
 __all__ = ["CHECKPOINT_KIND", "CHECKPOINT_VERSION", "NOTHING_LEFT_TO_TRAIN", "save_checkpoint",
-           "load_checkpoint", "load_model", "export_weights"]
+           "load_checkpoint", "load_model", "export_weights", "attach_text_model"]
 
 #: Identifies a physlab motion checkpoint (the name of the module that first wrote them).
 CHECKPOINT_KIND = "physlab.motion.train"
@@ -123,15 +125,25 @@ def load_checkpoint(path):
     if ckpt.get("version") != CHECKPOINT_VERSION:
         raise ValueError(f"{path} has checkpoint version {ckpt.get('version')}, this code "
                          f"reads version {CHECKPOINT_VERSION}")
-    weights = ckpt.get("model")
+    _check_weights(path, ckpt.get("model"), "model")
+    text = ckpt.get("text_model")
+    if text is not None:
+        if not isinstance(text, dict) or not isinstance(text.get("model_config"), dict):
+            raise ValueError(f"{path} has a 'text_model' entry without a 'model_config'; "
+                             f"re-attach the text model ({ATTACH_COMMAND})")
+        _check_weights(path, text.get("model"), "text_model.model")
+    return _from_safe(ckpt)
+
+
+def _check_weights(path, weights, key):
+    """ValueError unless ``weights`` is a state dict of finite tensors."""
     if not isinstance(weights, dict) or not all(torch.is_tensor(v) for v in weights.values()):
-        raise ValueError(f"{path} has no state dict of tensors under 'model'")
+        raise ValueError(f"{path} has no state dict of tensors under {key!r}")
     for name, v in weights.items():
         if v.is_floating_point() and not bool(torch.isfinite(v).all()):
             raise ValueError(f"checkpoint {path} has non-finite weights (NaN or inf) in "
                              f"{name!r}: it comes from a diverged training run; use an "
                              f"earlier checkpoint or retrain with a smaller --lr")
-    return _from_safe(ckpt)
 
 
 def _build(ckpt):
@@ -159,7 +171,8 @@ def load_model(path_or_ckpt):
     dict: ``model`` (:class:`MotionDenoiser` or :class:`ControlledDenoiser`, eval mode,
     float32), ``scheduler`` (:class:`NoiseScheduler`), ``stats`` (:class:`FeatureStats`),
     ``text_cache`` (:class:`EmbeddingCache`), ``config`` (:class:`DenoiserConfig`),
-    ``stage``, ``step``.
+    ``stage``, ``step``, ``text_model`` (:class:`MotionDenoiser` for text-only requests, eval,
+    float32, or None: :func:`attach_text_model`).
     """
     from .text import EmbeddingCache
 
@@ -170,10 +183,16 @@ def load_model(path_or_ckpt):
     scheduler = NoiseScheduler.from_dict(ckpt["scheduler"])
     (model if isinstance(model, MotionDenoiser) else model.base).set_schedule(
         scheduler.alphas_cumprod)                                          # config.skip only
+    text_model = None
+    if ckpt.get("text_model") is not None:
+        text_model = MotionDenoiser(DenoiserConfig.from_dict(ckpt["text_model"]["model_config"]))
+        text_model.load_state_dict({k: v.float() for k, v in ckpt["text_model"]["model"].items()})
+        text_model.eval().set_schedule(scheduler.alphas_cumprod)
     return {"model": model, "scheduler": scheduler,
             "stats": FeatureStats(**ckpt["feature_stats"]),
             "text_cache": EmbeddingCache.from_state_dict(ckpt["text_cache"]),
-            "config": model.config, "stage": ckpt["stage"], "step": ckpt["step"]}
+            "config": model.config, "stage": ckpt["stage"], "step": ckpt["step"],
+            "text_model": text_model}
 
 
 def export_weights(src, dst, dtype=torch.float16):
@@ -184,3 +203,86 @@ def export_weights(src, dst, dtype=torch.float16):
     small["model"] = {k: v.to(dtype) if v.is_floating_point() else v
                       for k, v in ckpt["model"].items()}
     return save_checkpoint(dst, small)
+
+
+#: How a text model is attached (the error messages point here).
+ATTACH_COMMAND = ("python -m physlab.motion.checkpoint attach-text CONTROL.pt TEXT_BASE.pt")
+#: Model-config fields a text model must share with the control checkpoint's base: the
+#: sampler reads the clip length, features and output basis from the control model.
+SHARED_CONFIG = ("feature_dim", "n_frames", "text_dim", "max_timesteps", "representation",
+                 "smooth_basis")
+
+
+def attach_text_model(control, text_base, out=None, dtype=torch.float16):
+    """Write ``control`` (a control-stage checkpoint) with the network of ``text_base`` (a
+    base-stage checkpoint) attached as its ``text_model``: :class:`~physlab.motion.sampling.
+    Generator` then samples text-only requests with it and everything with a keypose,
+    trajectories or a drawing with the control model, as before.
+
+    Why (docs/motion_experiments.md): the ControlNet's frozen base must be an x₀ network (a
+    base with EDM's skip connection follows text better but loses control accuracy), and that
+    x₀ base overwrites rare actions (backwards walks, waves) with its own. Sketch2Anim samples
+    text only from the ControlNet's base; this is physlab's deviation, and a control
+    checkpoint without a text model keeps the paper's behaviour.
+
+    Both must come from the same data and noise schedule: the feature statistics, scheduler,
+    training takes and :data:`SHARED_CONFIG` fields are compared, and a mismatch is a
+    ValueError naming the field. ``out`` (default: ``control`` itself) is written atomically;
+    the text model's weights are cast to ``dtype`` (fp16, as :func:`export_weights`). Returns
+    the Path written."""
+    ctrl, text = load_checkpoint(control), load_checkpoint(text_base)
+    if ctrl.get("stage") not in ("control", "align"):
+        raise ValueError(f"{control} is a {ctrl.get('stage')!r} checkpoint; give a control "
+                         f"checkpoint (`python -m physlab.motion.train --stage control`) first")
+    if text.get("stage") != "base":
+        raise ValueError(f"{text_base} is a {text.get('stage')!r} checkpoint; the text model "
+                         f"must be a base (`python -m physlab.motion.train --stage base`)")
+    a, b = ctrl["model_config"], text["model_config"]
+    for field in SHARED_CONFIG:
+        if a.get(field) != b.get(field):
+            raise ValueError(f"model_config.{field} differs: {control} has {a.get(field)!r}, "
+                             f"{text_base} {b.get(field)!r}; train the text base with the "
+                             f"control model's settings")
+    for key in ("mean", "std"):
+        if not np.allclose(ctrl["feature_stats"][key], text["feature_stats"][key],
+                           rtol=1e-6, atol=1e-9):
+            raise ValueError(f"feature_stats.{key} differs between {control} and {text_base}: "
+                             f"they were trained on different clips; train both on the same "
+                             f"data")
+    sa, sb = NoiseScheduler.from_dict(ctrl["scheduler"]), NoiseScheduler.from_dict(
+        text["scheduler"])
+    if not torch.allclose(sa.alphas_cumprod, sb.alphas_cumprod):
+        raise ValueError(f"the noise schedules of {control} and {text_base} differ; train the "
+                         f"text base with the control model's schedule")
+    if sorted(ctrl.get("train_takes") or ()) != sorted(text.get("train_takes") or ()):
+        raise ValueError(f"train_takes differ: {control} was trained on "
+                         f"{ctrl.get('train_takes')}, {text_base} on {text.get('train_takes')}; "
+                         f"a held-out take must stay held out for both")
+    ctrl["text_model"] = {
+        "model_config": b, "step": text.get("step"), "train_config": text.get("train_config"),
+        "model": {k: v.to(dtype) if v.is_floating_point() else v
+                  for k, v in text["model"].items()}}
+    return save_checkpoint(control if out is None else out, ctrl)
+
+
+def main(argv=None):
+    """``python -m physlab.motion.checkpoint attach-text CONTROL TEXT_BASE [--out OUT]``."""
+    import argparse
+
+    p = argparse.ArgumentParser(prog="python -m physlab.motion.checkpoint",
+                                description="Tools for motion checkpoints.")
+    sub = p.add_subparsers(dest="command", required=True)
+    at = sub.add_parser("attach-text", help=attach_text_model.__doc__.split("\n\n")[0])
+    at.add_argument("control", help="control-stage checkpoint (rewritten unless --out)")
+    at.add_argument("text_base", help="base-stage checkpoint whose network takes text only")
+    at.add_argument("--out", default=None, help="write here instead of CONTROL")
+    args = p.parse_args(argv)
+    try:
+        path = attach_text_model(args.control, args.text_base, args.out)
+    except (FileNotFoundError, ValueError) as e:
+        p.exit(2, f"{p.prog}: error: {e}\n")
+    print(f"text model of {args.text_base} attached -> {path}")
+
+
+if __name__ == "__main__":
+    main()

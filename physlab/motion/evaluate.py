@@ -446,7 +446,10 @@ def _check_windows(windows):
     return int(windows)
 
 
-def _load(path, flag, need_control=True):
+def _load(path, flag, need_control=True, text_model=True):
+    """The :class:`~physlab.motion.sampling.Generator` of checkpoint ``path`` (``flag`` names
+    it in errors); ``text_model`` False drops an attached text model (text only then comes
+    from the control model's base, as in Sketch2Anim)."""
     from .sampling import Generator
 
     if path is None or not Path(path).is_file():
@@ -457,6 +460,8 @@ def _load(path, flag, need_control=True):
             + (f" {flag}" if VARIANTS.get(flag, (None, "adapter"))[1] != "adapter" else "")
             + " (add --smoke for a seconds-long test model)")
     gen = Generator.from_checkpoint(path)
+    if not text_model:
+        gen.text_model = None
     if not need_control:
         return gen
     if not gen.has_control:
@@ -539,7 +544,7 @@ def evaluate(control, single_controlnet=None, windows=64, steps=None, guidance=2
              out=None, progress=True, data_root=None, body_constraints=True,
              control_guidance=1.0, guidance_variants=False, evaluator="default",
              foot_lock=True, frequencies=None, double_controlnet=None, pose_detail=False,
-             takes=TEST_TAKES, condition_scale=1.0):
+             takes=TEST_TAKES, condition_scale=1.0, text_model=True):
     """Evaluate a control checkpoint on held-out Bandai-Namco windows (module docstring).
 
     Keyword names match the CLI flags.
@@ -580,6 +585,9 @@ def evaluate(control, single_controlnet=None, windows=64, steps=None, guidance=2
         row and each networks-only row (:func:`format_pose_breakdown` prints them).
     takes : the takes whose windows are evaluated (:func:`held_out_windows`; default the
         held-out take).
+    text_model : bool, sample the text-only row with the checkpoint's attached text model
+        when it has one (:func:`~physlab.motion.checkpoint.attach_text_model`); False: with
+        the control model's base, as Sketch2Anim does.
 
     Returns
     -------
@@ -590,7 +598,7 @@ def evaluate(control, single_controlnet=None, windows=64, steps=None, guidance=2
     n = _check_windows(windows)
     steps = _steps(steps)
     _check_scale("guidance", guidance, " (Sketch2Anim uses 7.5)")
-    gens = {"keypose + trajectory": _load(control, "--control")}
+    gens = {"keypose + trajectory": _load(control, "--control", text_model=text_model)}
     for flag, path in (("--single-controlnet", single_controlnet),
                        ("--double-controlnet", double_controlnet)):
         if path is not None:
@@ -652,6 +660,7 @@ def evaluate(control, single_controlnet=None, windows=64, steps=None, guidance=2
                   "guidance_variants": bool(guidance_variants),
                   "pose_detail": bool(pose_detail),
                   "evaluator": None if evaluator is None else str(evaluator),
+                  "text_model": gens["keypose + trajectory"].text_model is not None,
                   "fid_reference_windows": len(data["reference_joints"])}
         detail = format_pose_breakdown(rows)
         atomic_write_text(out / "table.md", format_table(rows, takes) + "\n"
@@ -722,7 +731,7 @@ def motion_statistics(joints, fps=20.0):
 
 
 def text_adherence(control, contents=ADHERENCE_CONTENTS, seeds=4, steps=None, guidance=2.5,
-                   progress=True, data_root=None, frequencies=None):
+                   progress=True, data_root=None, frequencies=None, text_model=True):
     """Does the text-only generator do what the action word says? (Next to the evaluator's
     R-precision, this says *what* differs: travel, speed, hand height.)
 
@@ -730,7 +739,7 @@ def text_adherence(control, contents=ADHERENCE_CONTENTS, seeds=4, steps=None, gu
     the windows of all Bandai-Namco clips of that content (both takes: the reference says what
     the action looks like; the held-out take lacks some actions) through
     :func:`motion_statistics`; ``frequencies`` as :meth:`Generator.__call__` (None: its
-    text-only default).
+    text-only default); ``text_model`` as :func:`evaluate`.
     Recognition: each generated clip is assigned the content whose mean real statistics are
     nearest (statistics scaled by their spread over the real windows); ``accuracy`` is the
     fraction assigned to the content asked for (chance ``1 / len(contents)``).
@@ -754,7 +763,8 @@ def text_adherence(control, contents=ADHERENCE_CONTENTS, seeds=4, steps=None, gu
                          f"unknown: {unknown}")
     if isinstance(seeds, bool) or not isinstance(seeds, (int, np.integer)) or seeds < 1:
         raise ValueError(f"seeds must be an integer >= 1, got {seeds!r}")
-    gen = _load(control, "--control", need_control=False)        # text only: a base will do
+    gen = _load(control, "--control", need_control=False,         # text only: a base will do
+                text_model=text_model)
     win = make_windows(load_clips(data_root), length=WINDOW_LENGTH, stride=WINDOW_STRIDE)
     real_stats = motion_statistics(win.joints, fps=win.fps)               # (M, 4)
     labels = np.asarray(win.content)
@@ -1373,6 +1383,9 @@ def _parser():
                    help="--blending: masked frames (default 20, Sketch2Anim supp. D)")
     p.add_argument("--no-foot-lock", action="store_true",
                    help="body constraints without the foot-contact lock")
+    p.add_argument("--no-text-model", action="store_true",
+                   help="text-only clips (text-only row, --adherence) from the control model's "
+                        "base, as Sketch2Anim does, even if the checkpoint has a text model")
     p.add_argument("--frequencies", type=int, default=None,
                    help="DCT frequencies x̂₀ keeps in every row and in --adherence (default: "
                         "the generator's, 10; the checkpoint was trained with 16)")
@@ -1421,7 +1434,7 @@ def main(argv=None):
                     body_constraints=not args.no_body_constraints,
                     foot_lock=not args.no_foot_lock, frequencies=args.frequencies,
                     guidance_variants=args.guidance_variants, pose_detail=args.pose_detail,
-                    takes=takes,
+                    takes=takes, text_model=not args.no_text_model,
                     evaluator=None if args.no_evaluator else args.evaluator)
     if args.detail is not None:
         print(format_detail(detail_kept(args.control, content=args.detail,
@@ -1435,7 +1448,8 @@ def main(argv=None):
         adherence = text_adherence(args.control, seeds=args.adherence_seeds,
                                    steps=args.steps, guidance=args.guidance,
                                    progress=not args.no_progress,
-                                   data_root=args.data_root, frequencies=args.frequencies)
+                                   data_root=args.data_root, frequencies=args.frequencies,
+                                   text_model=not args.no_text_model)
     if rows:
         print(format_table(rows, takes))
         if args.pose_detail:

@@ -83,14 +83,21 @@ def test_training_texts_are_cached_and_never_load_the_encoder(real_data, gen):
 
 @pytest.fixture(scope="module")
 def held_out(real_data, gen):
-    """Text only, networks only and guided clips of 8 held-out windows (Cross protocol)."""
+    """Text only (the attached text model; ``"base"``: the control model's own base, Table 2's
+    text only), networks only and guided clips of 8 held-out windows (Cross protocol)."""
     data = held_out_windows(8)
     conds = eval_conditions(data["joints"], seed=0)
     rows, clips = {}, {}
-    for label, opts in (("text", None), ("networks", UNGUIDED), ("guided", GUIDED)):
-        x = np.stack([gen(data["text"][i], seed=i, steps=20,
-                          **({} if opts is None else {**c.generator_kwargs(), **opts}))
-                      for i, c in enumerate(conds)])
+    text_model = gen.text_model
+    for label, opts in (("text", None), ("base", None), ("networks", UNGUIDED),
+                        ("guided", GUIDED)):
+        gen.text_model = None if label == "base" else text_model
+        try:
+            x = np.stack([gen(data["text"][i], seed=i, steps=20,
+                              **({} if opts is None else {**c.generator_kwargs(), **opts}))
+                          for i, c in enumerate(conds)])
+        finally:
+            gen.text_model = text_model
         rows[label], clips[label] = clip_metrics(x, conds), x
     rows["real"] = clip_metrics(data["joints"], conds)
     return rows, clips, conds
@@ -98,9 +105,12 @@ def held_out(real_data, gen):
 
 def test_networks_alone_follow_the_conditions(held_out):
     """The ControlNet and keypose adapter, without any inference guidance, land much nearer
-    the conditions than text only (bounds and measured values at ``TRAJ_LIMIT``)."""
+    the conditions than text only from the same base (bounds and measured values at
+    ``TRAJ_LIMIT``). The attached text model's clips are as far from the conditions on 64
+    windows (0.294 / 0.313 / 0.088 m against the base's 0.297 / 0.295 / 0.089 m, README), but
+    on these 8 its placed keypose error happens to be 0.17 m against the base's 0.24."""
     rows = held_out[0]
-    t, n = rows["text"], rows["networks"]
+    t, n = rows["base"], rows["networks"]
     assert n["trajectory_error_3d"] < TRAJ_LIMIT and n["keypose_mpjpe_3d"] < KEY_LIMIT, rows
     assert n["keypose_pose_3d"] < POSE_LIMIT, rows
     assert n["trajectory_error_3d"] < t["trajectory_error_3d"] / TRAJ_GAIN, rows
@@ -164,6 +174,26 @@ def test_text_only_runs_move_their_pelvis_like_real_runs(real_data, gen):
     speed_real, speed = motion_statistics(real)[:, 2].mean(), motion_statistics(fake)[:, 2].mean()
     assert abs(speed / speed_real - 1) <= 0.3, (speed, speed_real)
     assert acceleration(fake) <= 4 * acceleration(real), (acceleration(fake), acceleration(real))
+
+
+def test_the_text_model_walks_backwards_and_waves(real_data, gen):
+    """Text only comes from the attached text model (checkpoint.attach_text_model), which does
+    the rare actions that the control model's x₀ base overwrites with its own (issue 12's
+    text-adherence targets, docs/motion_experiments.md). Measured on these 4 seeds
+    (2026-11-29): backwards walk -1.99 m and 1.03 m/s (real -1.34 m, 0.71 m/s; the base -0.14 m,
+    0.17 m/s); the wave's wrist travel 0.022 m/frame (real 0.043; the base 0.007)."""
+    from physlab.motion.evaluate import motion_statistics
+
+    assert gen.text_model is not None, "the shipped checkpoint should carry a text model"
+    real = {c: motion_statistics(make_windows(load_clips(contents=[c], progress=False)).joints)
+            .mean(0) for c in ("walk-back", "wave-right-hand")}
+    back = motion_statistics(np.stack([gen("a person walks backwards", seed=s)
+                                       for s in range(4)])).mean(0)
+    wave = motion_statistics(np.stack([gen("a person waves the right hand", seed=s)
+                                       for s in range(4)])).mean(0)
+    assert back[0] < 0.5 * real["walk-back"][0] < 0, (back, real)             # forward (m)
+    assert abs(back[2] / real["walk-back"][2] - 1) < 0.6, (back, real)        # speed (m/s)
+    assert wave[4] > 0.35 * real["wave-right-hand"][4], (wave, real)          # wrist travel
 
 
 def test_a_2d_sketch_steers_the_shipped_model_through_the_guidance(real_data, gen):
