@@ -819,7 +819,8 @@ class Generator:
         as :meth:`__call__` does (the clip is then ignored); a DDIM step from ``level`` and
         the steps of a ``steps``-step schedule below it then run with text guidance ``guidance_scale`` for
         ``action``, keeping ``frequencies`` DCT frequencies (default: the text-only
-        default). No path low-pass, no body constraints: the network's own result.
+        default). No path low-pass, no body constraints: the network's own result — the
+        frozen base of a control model (:attr:`denoiser`), not its :attr:`text_model`.
         Returns the (N, 22, 3) joints decoded from the last x̂₀."""
         J = np.asarray(joints, dtype=float)
         N = self.config.n_joint_frames
