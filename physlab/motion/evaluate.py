@@ -462,9 +462,9 @@ def _load(path, flag, need_control=True, text_model=True):
     gen = Generator.from_checkpoint(path)
     if not text_model:
         gen.text_model = None
-    if not need_control:
-        return gen
     if not gen.has_control:
+        if not need_control:
+            return gen
         raise ValueError(f"{flag} {path} is a '{gen.stage}' (text-only) checkpoint; give a "
                          f"control checkpoint (`python -m physlab.motion.train --stage control "
                          f"--base-ckpt {path} --out runs/control.pt`)")
@@ -552,7 +552,8 @@ def evaluate(control, single_controlnet=None, windows=64, steps=None, guidance=2
     Parameters
     ----------
     control : path of a control checkpoint (``python -m physlab.motion.train --stage
-        control``).
+        control``), or of a base checkpoint (``--stage base``): then only the real and
+        text-only rows (a text base measured on the same windows).
     single_controlnet, double_controlnet : None or paths of ``--single-controlnet`` /
         ``--double-controlnet`` control checkpoints (Table 2's ablations).
     windows : int >= 1, held-out windows evaluated.
@@ -598,7 +599,14 @@ def evaluate(control, single_controlnet=None, windows=64, steps=None, guidance=2
     n = _check_windows(windows)
     steps = _steps(steps)
     _check_scale("guidance", guidance, " (Sketch2Anim uses 7.5)")
-    gens = {"keypose + trajectory": _load(control, "--control", text_model=text_model)}
+    main_gen = _load(control, "--control", need_control=False, text_model=text_model)
+    gens = {"keypose + trajectory": main_gen} if main_gen.has_control else {}
+    if not gens and (single_controlnet is not None or double_controlnet is not None
+                     or guidance_variants or condition_scale != 1.0):
+        raise ValueError(f"--control {control} is a base (text-only) checkpoint: it has only "
+                         f"the text-only row; drop --single-controlnet / --double-controlnet / "
+                         f"--guidance-variants / --condition-scale, or give a control "
+                         f"checkpoint")
     for flag, path in (("--single-controlnet", single_controlnet),
                        ("--double-controlnet", double_controlnet)):
         if path is not None:
@@ -623,7 +631,7 @@ def evaluate(control, single_controlnet=None, windows=64, steps=None, guidance=2
         return {**clip_metrics(x, conds, s), **text_motion(x)}
 
     rows = {"real clips": metrics(data["joints"])}
-    x, s = _sample(gens["keypose + trajectory"], data, conds, False, label="text only",
+    x, s = _sample(main_gen, data, conds, False, label="text only",
                    guidance=float(guidance), **kw)
     rows["text only"] = metrics(x, s)
     if not isinstance(pose_detail, (bool, np.bool_)):
@@ -660,7 +668,7 @@ def evaluate(control, single_controlnet=None, windows=64, steps=None, guidance=2
                   "guidance_variants": bool(guidance_variants),
                   "pose_detail": bool(pose_detail),
                   "evaluator": None if evaluator is None else str(evaluator),
-                  "text_model": gens["keypose + trajectory"].text_model is not None,
+                  "text_model": main_gen.text_model is not None, "stage": main_gen.stage,
                   "fid_reference_windows": len(data["reference_joints"])}
         detail = format_pose_breakdown(rows)
         atomic_write_text(out / "table.md", format_table(rows, takes) + "\n"
@@ -1301,7 +1309,8 @@ def _parser():
                "--out runs/eval\n"
                "  %(prog)s --control runs/smoke_control.pt --windows 2 --steps 2    # seconds")
     p.add_argument("--control", default=None,
-                   help="control checkpoint (train --stage control); required unless --blending")
+                   help="control checkpoint (train --stage control), or a base checkpoint "
+                        "for the real and text-only rows; required unless --blending")
     p.add_argument("--single-controlnet", default=None,
                    help="optional single-ControlNet control checkpoint (Table 2 ablation)")
     p.add_argument("--double-controlnet", default=None,

@@ -209,9 +209,10 @@ def test_missing_checkpoint(ckpts, tmp_path):
                  ["--control", str(tmp_path / "nope.pt"), "--no-progress"]) == 2
 
 
-def test_base_checkpoint_is_not_a_control_checkpoint(ckpts):
+def test_base_checkpoint_is_not_an_ablation_checkpoint(ckpts):
+    """A base is fine as --control (text-only rows, below), not as a ControlNet ablation."""
     with pytest.raises(ValueError, match="text-only"):
-        evaluate(ckpts["base"], **FAST)
+        evaluate(ckpts["control"], single_controlnet=ckpts["base"], **FAST)
 
 
 @pytest.mark.parametrize("bad", [0, -3, 2.5, True])
@@ -555,3 +556,19 @@ def test_follow_slope_is_one_for_a_copy_zero_for_a_constant_and_the_kept_share_b
     assert np.isnan(follow_slope([1.0], [2.0]))
     with pytest.raises(ValueError, match="real and got"):
         follow_slope(real, real[:5])
+
+
+def test_a_base_checkpoint_gets_the_real_and_text_only_rows(ckpts, tmp_path):
+    """`evaluate --control BASE` measures a text base on the same held-out windows (its text
+    only equals the text only of a control model built on it); ablation rows need a control
+    checkpoint."""
+    kw = dict(windows=2, steps=2, progress=False, evaluator=None)
+    rows = main(["--control", str(ckpts["base"]), "--windows", "2", "--steps", "2",
+                 "--no-progress", "--no-evaluator", "--out", str(tmp_path)])
+    assert list(rows) == ["real clips", "text only"]
+    assert json.loads((tmp_path / "rows.json").read_text())["config"]["stage"] == "base"
+    full = evaluate(ckpts["control"], **kw)
+    untimed = [k for k in rows["text only"] if k != "seconds_per_clip"]
+    assert [rows["text only"][k] for k in untimed] == [full["text only"][k] for k in untimed]
+    with pytest.raises(ValueError, match="base .text-only. checkpoint"):
+        evaluate(ckpts["base"], single_controlnet=ckpts["single"], **kw)
