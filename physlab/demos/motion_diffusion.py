@@ -53,6 +53,7 @@ __all__ = [
     "GUIDANCE_ACTIONS",
     "GUIDANCE_SCALES",
     "NOISE_LEVELS",
+    "RARE_ACTIONS",
     "SAMPLERS",
     "UNSEEN_ACTIONS",
     "WALK_CLIP",
@@ -81,6 +82,8 @@ __all__ = [
     "sampler_figure",
     "schedule_figure",
     "strobe_image",
+    "text_model_comparison",
+    "text_model_figure",
     "walk_figure",
     "walk_window",
     "lesson_windows",
@@ -665,6 +668,57 @@ def action_speeds(actions, seeds=(0, 1), steps=50, guidance_scale=7.5, checkpoin
         return {a: float(np.mean([root_speed(gen(a, seed=int(s), guidance_scale=w,
                                                  steps=int(steps))).mean() for s in seeds]))
                 for a in actions}
+
+
+#: Actions whose text-only clips the control model's x₀ base overwrites with its own motion
+#: (README, text-adherence finding), for :func:`text_model_comparison`.
+RARE_ACTIONS = ("a person walks backwards", "a person waves the right hand", "a person bows",
+                "a person raises both hands")
+
+
+def text_model_comparison(actions=RARE_ACTIONS, seed=1, steps=None, checkpoint=None):
+    """Text-only clips of each action, same seed, from the checkpoint's text model
+    (:attr:`~physlab.motion.sampling.Generator.text_model`, what ``generate`` uses) and from
+    the control model's frozen base (Sketch2Anim's text only).
+
+    Returns dict ``{"actions": tuple, "text model": [(40, 22, 3)], "control base": [...],
+    "statistics": {row: (n_actions, 5) array of evaluate.motion_statistics}}``. ValueError if
+    the checkpoint has no text model."""
+    from physlab.motion.evaluate import motion_statistics
+
+    gen = generator(checkpoint)
+    if gen.text_model is None:
+        raise ValueError(f"{gen.path} has no text model; attach one with `python -m "
+                         f"physlab.motion.checkpoint attach-text {gen.path} TEXT_BASE.pt`")
+    actions = tuple(actions)
+    if not actions or not all(isinstance(a, str) and a.strip() for a in actions):
+        raise ValueError(f"actions must be non-empty texts, got {actions!r}")
+    keep, out = gen.text_model, {"actions": actions}
+    try:
+        with one_thread(), _quiet_encoder_loading(_unknown(gen, actions)):
+            for row, model in (("text model", keep), ("control base", None)):
+                gen.text_model = model
+                out[row] = [gen(a, seed=int(seed), steps=steps) for a in actions]
+    finally:
+        gen.text_model = keep
+    out["statistics"] = {row: motion_statistics(np.stack(out[row]))
+                         for row in ("text model", "control base")}
+    return out
+
+
+def text_model_figure(result, backend="auto"):
+    """Strobes of :func:`text_model_comparison`: the text model's clips (top row) over the
+    control base's (bottom), titled with the pelvis's forward travel and the wrist travel."""
+    n = len(result["actions"])
+    fig, axes = new_figure(n, 2, width=2.25, height=2.2)
+    fig.set_dpi(FIG_DPI)
+    for r, row in enumerate(("text model", "control base")):
+        for c, action in enumerate(result["actions"]):
+            st = result["statistics"][row][c]
+            _show(axes[r * n + c], strobe_image(result[row][c], size=(300, 260), backend=backend),
+                  f"{row}: {_short(action)}\nforward {st[0]:+.2f} m, wrist "
+                  f"{100 * st[4]:.1f} cm/frame", fontsize=7)
+    return fig
 
 
 def embedding_neighbourhood(queries=UNSEEN_ACTIONS, vocabulary=None, extra=None, k=4,

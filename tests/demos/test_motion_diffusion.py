@@ -373,3 +373,38 @@ def test_lesson_defaults_need_no_external_data(monkeypatch, tmp_path):
 def test_held_out_window_count_is_checked(windows):
     with pytest.raises(ValueError, match="windows must be an integer"):
         demo._held_out(windows, None, None)
+
+
+def test_text_model_comparison_samples_both_networks(ckpts, tmp_path):
+    """Lesson 09's text-model figure: the same seed through the attached text model and the
+    control base (smoke models: a text base attached in fp32, so its row equals the base's
+    own clips), statistics per clip, a 2-row figure; a checkpoint without a text model and bad
+    actions are refused."""
+    from physlab.motion.checkpoint import attach_text_model
+    from physlab.motion.evaluate import motion_statistics
+    from physlab.motion.sampling import Generator
+
+    text = train(stage="base", out=str(tmp_path / "text.pt"), skip=True, skip_pelvis=False,
+                 seed=1, **SMOKE)["path"]
+    attached = attach_text_model(ckpts["control"], text, tmp_path / "attached.pt",
+                                 dtype=torch.float32)
+    actions = Generator.from_checkpoint(text).text_cache.texts[:2]
+    res = demo.text_model_comparison(actions, seed=1, steps=3, checkpoint=attached)
+    assert res["actions"] == tuple(actions)
+    own = Generator.from_checkpoint(text)
+    for a, x in zip(actions, res["text model"]):
+        np.testing.assert_array_equal(x, own(a, seed=1, steps=3))
+    plain = Generator.from_checkpoint(ckpts["control"])
+    for a, x in zip(actions, res["control base"]):
+        np.testing.assert_array_equal(x, plain(a, seed=1, steps=3))
+    for row in ("text model", "control base"):
+        np.testing.assert_allclose(res["statistics"][row], motion_statistics(np.stack(res[row])))
+    assert demo.generator(attached).text_model is not None              # restored after
+    fig = demo.text_model_figure(res, **MPL)
+    _drawable(fig, tmp_path, 4)
+    assert fig.axes[0].get_title().startswith("text model") and "wrist" in fig.axes[0].get_title()
+    assert fig.axes[2].get_title().startswith("control base")
+    with pytest.raises(ValueError, match="has no text model"):
+        demo.text_model_comparison(actions, checkpoint=ckpts["control"])
+    with pytest.raises(ValueError, match="actions must be non-empty texts"):
+        demo.text_model_comparison(("",), checkpoint=attached)
