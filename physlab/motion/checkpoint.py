@@ -200,9 +200,13 @@ def export_weights(src, dst, dtype=torch.float16):
     to ``dtype``); :func:`load_model` reads it. Returns the Path."""
     ckpt = load_checkpoint(src)
     small = {k: v for k, v in ckpt.items() if k not in ("optimizer", "rng")}
-    small["model"] = {k: v.to(dtype) if v.is_floating_point() else v
-                      for k, v in ckpt["model"].items()}
+    small["model"] = _cast(ckpt["model"], dtype)
     return save_checkpoint(dst, small)
+
+
+def _cast(weights, dtype):
+    """A state dict with its floating-point tensors cast to ``dtype``."""
+    return {k: v.to(dtype) if v.is_floating_point() else v for k, v in weights.items()}
 
 
 #: How a text model is attached (the error messages point here).
@@ -260,28 +264,35 @@ def attach_text_model(control, text_base, out=None, dtype=torch.float16):
                          f"a held-out take must stay held out for both")
     ctrl["text_model"] = {
         "model_config": b, "step": text.get("step"), "train_config": text.get("train_config"),
-        "model": {k: v.to(dtype) if v.is_floating_point() else v
-                  for k, v in text["model"].items()}}
+        "model": _cast(text["model"], dtype)}
     return save_checkpoint(control if out is None else out, ctrl)
 
 
-def main(argv=None):
-    """``python -m physlab.motion.checkpoint attach-text CONTROL TEXT_BASE [--out OUT]``."""
-    import argparse
+PROG = "python -m physlab.motion.checkpoint"
 
-    p = argparse.ArgumentParser(prog="python -m physlab.motion.checkpoint",
-                                description="Tools for motion checkpoints.")
+
+def _attach_command(argv):
+    from physlab._cli import Parser
+
+    p = Parser(prog=PROG, description="Tools for motion checkpoints.")
     sub = p.add_subparsers(dest="command", required=True)
     at = sub.add_parser("attach-text", help=attach_text_model.__doc__.split("\n\n")[0])
     at.add_argument("control", help="control-stage checkpoint (rewritten unless --out)")
     at.add_argument("text_base", help="base-stage checkpoint whose network takes text only")
     at.add_argument("--out", default=None, help="write here instead of CONTROL")
     args = p.parse_args(argv)
-    try:
-        path = attach_text_model(args.control, args.text_base, args.out)
-    except (FileNotFoundError, ValueError) as e:
-        p.exit(2, f"{p.prog}: error: {e}\n")
+    path = attach_text_model(args.control, args.text_base, args.out)
     print(f"text model of {args.text_base} attached -> {path}")
+
+
+def main(argv=None):
+    """``python -m physlab.motion.checkpoint attach-text CONTROL TEXT_BASE [--out OUT]``: one-
+    line errors with exit status 2 (``--debug``: the traceback), as every physlab command."""
+    from physlab._cli import guard
+
+    status = guard(PROG, _attach_command, argv)
+    if status:
+        raise SystemExit(status)
 
 
 if __name__ == "__main__":
