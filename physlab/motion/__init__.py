@@ -14,7 +14,8 @@ motion generator.
   normalised image coordinates, pixels) and the sketch augmentations of supp. B;
 * :mod:`.export` — :func:`joints_to_bvh`, generated joint positions → BVH (Blender);
 * :mod:`.text` — the offline action-word encoder (all-MiniLM-L6-v2, CLIP's stand-in) and
-  its embedding cache (loads sentence-transformers only when encoding);
+  its embedding cache (loads the model only when encoding); :mod:`.minilm` — the
+  encoder's forward pass in plain PyTorch;
 * :mod:`.diffusion` — the noise scheduler (DDPM / DDIM, classifier-free guidance); imports
   torch, so it is not imported here;
 * :mod:`.transitions` — model-free transitions between clips (linear, slerp, SQUAD);

