@@ -239,6 +239,7 @@ class SymmetricDirichletDeformer:
         if not self.scale > 0:
             raise ValueError(f"length_scale must be > 0, got {length_scale}")
         self.X, self.tris, self.B, self.mu = X, tris, B, float(mu)
+        self._Bt = B.T          # made once: scipy builds a new matrix on every B.T
         self.n = len(X)
         self.Xs = X / self.scale
         self.Dm_inv, self.A = _normalised_areas(self.Xs, tris)
@@ -255,7 +256,7 @@ class SymmetricDirichletDeformer:
             return np.inf, np.inf, None
         r = self.B @ xs - targets_s
         e = ed + 0.5 * self.mu * float(np.sum(r * r))   # Eq. (1): E_d + E_pose
-        g += self.mu * (self.B.T @ r)
+        g += self.mu * (self._Bt @ r)
         return e, ed, g
 
     def energy(self, x, targets):
