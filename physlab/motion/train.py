@@ -88,6 +88,7 @@ import torch.nn.functional as F
 
 from .dataset import (
     TEST_TAKES,
+    action_text,
     load_clips,
     make_windows,
     mirror_windows,
@@ -224,6 +225,11 @@ class TrainConfig:
                                     # (recon_loss; with --skip); 0 = plain x0 MSE
     balance: float = 0.0            # draw a window with weight (windows of its action)^-balance:
                                     # 0 = uniform, 1 = every action equally often (action_weights)
+    style_drop: float = 0.0         # p(a window's style adverb is dropped): it is trained with
+                                    # its action's plain text ("a person walks backwards"), which
+                                    # then means the action in any style, as a storyboard's bare
+                                    # action word does; 0 = off: the plain text is trained on the
+                                    # "normal" style's windows only (none for some actions)
     text_encoder: str = "minilm"    # "minilm" (text.ActionEncoder) | "hash" (tests: fake)
     text_cache: str = ""            # optional EmbeddingCache .npz to read / fill
     smoke: bool = False             # tiny model, few steps, few clips: seconds
@@ -282,6 +288,9 @@ class TrainConfig:
             raise ValueError(f"snr_cap must be 0 (off) or >= 1 with --prediction sample (it "
                              f"weights the x0 loss), got {self.snr_cap} with --prediction "
                              f"{self.prediction}")
+        if not (math.isfinite(self.style_drop) and 0 <= self.style_drop <= 1):
+            raise ValueError(f"style_drop must be a probability in [0, 1] (0 = off), got "
+                             f"{self.style_drop!r}")
         if not 0 <= self.balance <= 1:
             raise ValueError(f"balance must be in [0, 1] (0 = uniform sampling, 1 = every "
                              f"action equally often), got {self.balance}")
@@ -391,6 +400,8 @@ def prepare_data(cfg: TrainConfig, stats: FeatureStats | None = None, cache=None
     dict with ``x0`` (N, 39, 137) (relative) or (N, 40, 70) (absolute) float32 normalised
     features, ``joints`` (N, 40, 22, 3)
     float64 canonical windows, ``text_index`` (N,) int64 into ``text_emb`` (V, 384) float32,
+    ``plain_index`` (N,) int64: the window's action text without its style adverb
+    (``TrainConfig.style_drop``),
     ``texts`` (list of V str), ``stats`` (:class:`FeatureStats`, computed here unless given),
     ``cache`` (:class:`~physlab.motion.text.EmbeddingCache`), ``train_takes`` (sorted list of
     the Bandai-Namco takes trained on; stored in the checkpoint).
@@ -405,7 +416,8 @@ def prepare_data(cfg: TrainConfig, stats: FeatureStats | None = None, cache=None
                       for w in win.joints])                       # (N, 39, 137) | (N, 40, 70)
     if stats is None:
         stats = FeatureStats.from_features(feats, representation=representation)
-    texts = sorted(set(win.text))
+    plain = [action_text(c) for c in win.content]            # the texts without a style adverb
+    texts = sorted(set(win.text) | set(plain))
     if cache is None:
         cache = _text_cache(texts, cfg)
     E = cache.get(texts, encoder=hash_encoder if cfg.text_encoder == "hash" else None)
@@ -413,6 +425,7 @@ def prepare_data(cfg: TrainConfig, stats: FeatureStats | None = None, cache=None
     return {"x0": torch.tensor(stats.normalize(feats), dtype=torch.float32),
             "joints": win.joints,
             "text_index": torch.tensor([index[t] for t in win.text], dtype=torch.int64),
+            "plain_index": torch.tensor([index[t] for t in plain], dtype=torch.int64),
             "text_emb": torch.tensor(E, dtype=torch.float32), "texts": texts,
             "stats": stats, "cache": cache,
             "train_takes": train_takes,
@@ -762,7 +775,11 @@ def train(**kwargs):
             idx = (torch.randint(N, (B,), generator=g) if weights is None        # (B,)
                    else torch.multinomial(weights, B, replacement=True, generator=g))
             x0 = x0_all[idx]                                                     # (B, T, D)
-            a = text_emb[text_idx[idx]]                                          # (B, 384)
+            ti = text_idx[idx]
+            if cfg.style_drop > 0:                  # only then: other runs keep their stream
+                ti = torch.where(torch.rand(B, generator=g) < cfg.style_drop,
+                                 data["plain_index"][idx], ti)
+            a = text_emb[ti]                                                     # (B, 384)
             t = sched.sample_timesteps(B, generator=g)                           # (B,)
             noise = torch.randn(x0.shape, generator=g)                           # (B, T, D)
             x_t = sched.add_noise(x0, noise, t)

@@ -554,6 +554,45 @@ def test_balanced_sampling_draws_rare_actions_more_often(real_data, tmp_path, mo
     assert not drawn
 
 
+def test_style_drop_trains_the_plain_action_text(real_data, tmp_path, monkeypatch):
+    """``style_drop``: every window also knows its action's text without the style adverb;
+    with p = 1 every batch is conditioned on those plain texts, with p = 0 on the windows'
+    own texts."""
+    from physlab.motion.dataset import ACTION_PHRASES, action_text
+    from physlab.motion.model import MotionDenoiser
+
+    data = prepare_data(TrainConfig(max_clips=3, text_encoder="hash", progress=False),
+                        representation="absolute")
+    texts = data["texts"]
+    own = [texts[i] for i in data["text_index"]]
+    plain = [texts[i] for i in data["plain_index"]]
+    assert set(plain) <= {action_text(c) for c in ACTION_PHRASES}   # no adverb
+    assert all(o.startswith(p) for o, p in zip(own, plain))          # the same action
+    assert any(o != p for o, p in zip(own, plain))                   # these clips have styles
+    E = data["text_emb"]
+    plain_rows = E[sorted(set(data["plain_index"].tolist()))]
+    seen = []
+    forward = MotionDenoiser.forward
+
+    def spy(self, x_t, t, text_emb, *args, **kwargs):
+        seen.append(text_emb.detach().clone())
+        return forward(self, x_t, t, text_emb, *args, **kwargs)
+
+    monkeypatch.setattr(MotionDenoiser, "forward", spy)
+
+    def batches(**kw):
+        seen.clear()
+        train(stage="base", out=str(tmp_path / f"{len(kw)}.pt"), steps=3, **kw, **SMOKE)
+        rows = torch.cat(seen)
+        return (torch.cdist(rows, plain_rows).min(1).values < 1e-6).float().mean().item()
+
+    assert batches(style_drop=1.0) == 1.0                            # plain texts only
+    assert batches() < 1.0                                           # own texts: styled too
+    for bad in (-0.1, 1.5, float("nan")):
+        with pytest.raises(ValueError, match="style_drop"):
+            TrainConfig(style_drop=bad)
+
+
 def test_skip_connection_trains_saves_and_reloads_its_schedule(real_data, tmp_path):
     """A ``--skip`` base trains, and :func:`load_model` restores the skip connection's ᾱ_t
     from the checkpoint's scheduler: the reloaded model gives the trained one's outputs."""
