@@ -55,6 +55,14 @@ def test_gradient_matches_finite_differences():
                         - symmetric_dirichlet_energy(X, tris, x - e)) / (2 * h)
     assert np.allclose(g, fd, rtol=1e-5, atol=1e-9)
     assert np.allclose(symmetric_dirichlet_gradient(X, tris, X), 0.0, atol=1e-12)
+    # the solver's energy, written per 2x2 entry (s (1 + 1/det^2)), equals the matrix form
+    # sum A (|J|^2 + |J^-1|^2) of symmetric_dirichlet_energy
+    from physlab.inbetween.deform import _normalised_areas, _sd_energy_grad
+
+    Dm_inv, A = _normalised_areas(X, tris)
+    e, g2 = _sd_energy_grad(x, np.asarray(tris), Dm_inv, A, len(X))
+    assert e == pytest.approx(symmetric_dirichlet_energy(X, tris, x), rel=1e-13)
+    np.testing.assert_array_equal(g2, g)
 
 
 def test_max_injective_step_single_triangle():
