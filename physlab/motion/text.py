@@ -225,7 +225,8 @@ class ActionEncoder:
     Sketch2Anim (Sec. 4, the action word embedding ``a`` of Eq. (2)).
 
     all-MiniLM-L6-v2 on the CPU: WordPiece tokens (lower-cased, at most 256), 6 transformer
-    layers, mean pooling over the tokens -> 384 numbers, then L2 normalisation. Construction is cheap; the model is loaded on the first
+    layers, mean pooling over the tokens -> 384 numbers, then L2 normalisation.
+    Construction is cheap; the model is loaded on the first
     :meth:`encode` (or by :meth:`load`), after its weights passed :func:`verify_weights`.
 
     Seam: everything that takes an encoder accepts any callable ``list[str] -> (N, D)``
@@ -317,7 +318,7 @@ class ActionEncoder:
         if modules and type(modules[-1]).__name__ == "Normalize":
             model = SentenceTransformer(modules=modules[:-1], device=self.device)
         model.eval()
-        self._model = model
+        self._model = _SentenceTransformersBackend(model)
         self.load_seconds = time.perf_counter() - t0
         return self
 
@@ -346,11 +347,7 @@ class ActionEncoder:
         if self.num_threads is not None:
             torch.set_num_threads(self.num_threads)
         try:
-            if self.backend == "physlab":
-                E = self._model.encode(items, batch_size=self.batch_size)
-            else:
-                E = self._model.encode(items, batch_size=self.batch_size, convert_to_numpy=True,
-                                       normalize_embeddings=False, show_progress_bar=False)
+            E = self._model.encode(items, batch_size=self.batch_size)
         finally:
             torch.set_num_threads(threads)
         E = np.asarray(E, dtype=np.float32)                                   # (N, 384)
@@ -359,6 +356,18 @@ class ActionEncoder:
     def __call__(self, texts):
         """:meth:`encode` with ``normalize=True``: the ``list[str] -> (N, D)`` seam."""
         return self.encode(texts)
+
+
+class _SentenceTransformersBackend:
+    """The reference library behind the interface of :mod:`physlab.motion.minilm`'s encoder:
+    ``encode(texts, batch_size) -> (N, D)`` mean-pooled, not normalised."""
+
+    def __init__(self, model):
+        self.model = model
+
+    def encode(self, texts, batch_size=64):
+        return self.model.encode(texts, batch_size=batch_size, convert_to_numpy=True,
+                                 normalize_embeddings=False, show_progress_bar=False)
 
 
 # ----------------------------------------------------------------------------- cache

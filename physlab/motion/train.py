@@ -736,6 +736,7 @@ def train(**kwargs):
     mean = torch.tensor(stats.mean, dtype=torch.float32)
     std = torch.tensor(stats.std, dtype=torch.float32)
     x0_all, text_idx, text_emb = data["x0"], data["text_index"], data["text_emb"]
+    plain_idx = data["plain_index"]                      # TrainConfig.style_drop
     joints_np = data["joints"]
     joints_all = torch.tensor(joints_np, dtype=torch.float32)
     N, B = len(x0_all), cfg.batch_size
@@ -778,7 +779,7 @@ def train(**kwargs):
             ti = text_idx[idx]
             if cfg.style_drop > 0:                  # only then: other runs keep their stream
                 ti = torch.where(torch.rand(B, generator=g) < cfg.style_drop,
-                                 data["plain_index"][idx], ti)
+                                 plain_idx[idx], ti)
             a = text_emb[ti]                                                     # (B, 384)
             t = sched.sample_timesteps(B, generator=g)                           # (B,)
             noise = torch.randn(x0.shape, generator=g)                           # (B, T, D)
