@@ -107,8 +107,8 @@ def test_networks_alone_follow_the_conditions(held_out):
     """The ControlNet and keypose adapter, without any inference guidance, land much nearer
     the conditions than text only from the same base (bounds and measured values at
     ``TRAJ_LIMIT``). The attached text model's clips are as far from the conditions on 64
-    windows (0.294 / 0.313 / 0.088 m against the base's 0.297 / 0.295 / 0.089 m, README), but
-    on these 8 its placed keypose error happens to be 0.17 m against the base's 0.24."""
+    windows (0.293 / 0.296 / 0.088 m against the base's 0.297 / 0.295 / 0.089 m, README); on
+    these 8 its placed keypose error is 0.22 m against the base's 0.24 (2026-11-29)."""
     rows = held_out[0]
     t, n = rows["base"], rows["networks"]
     assert n["trajectory_error_3d"] < TRAJ_LIMIT and n["keypose_mpjpe_3d"] < KEY_LIMIT, rows
@@ -135,7 +135,8 @@ def test_motion_is_about_as_smooth_as_mocap_and_feet_do_not_skate_far_more(held_
     windows at 50 steps, README) with margins for 8 windows at 20 steps (measured 2026-11-28
     with the shipped networks, the foot lock holding unguided strokes' feet: AUJ 0.44 / 0.22 /
     0.37 and PJ 0.071 / 0.049 / 0.059 for text / networks / guided against 0.30 and 0.050
-    real; skating 0.15 / 0.22 / 0.19 against 0.15)."""
+    real; skating 0.15 / 0.22 / 0.19 against 0.15; text only from the text model shipped since
+    2026-11-29: AUJ 0.58, PJ 0.084, skating 0.22)."""
     rows = held_out[0]
     real = rows["real"]
     for label in ("text", "networks", "guided"):
@@ -180,8 +181,10 @@ def test_the_text_model_walks_backwards_and_waves(real_data, gen):
     """Text only comes from the attached text model (checkpoint.attach_text_model), which does
     the rare actions that the control model's x₀ base overwrites with its own (issue 12's
     text-adherence targets, docs/motion_experiments.md). Measured on these 4 seeds
-    (2026-11-29): backwards walk -1.99 m and 1.03 m/s (real -1.34 m, 0.71 m/s; the base -0.14 m,
-    0.17 m/s); the wave's wrist travel 0.022 m/frame (real 0.043; the base 0.007)."""
+    (2026-11-29, the text model trained with ``--style-drop 0.3``): backwards walk -1.74 m and
+    0.90 m/s, +27 % (real -1.34 m, 0.71 m/s; the base -0.14 m, 0.17 m/s; the text model before
+    ``--style-drop`` -1.99 m, 1.03 m/s, +46 %); the wave's wrist travel 0.023 m/frame, 55 % of
+    real (real 0.043; the base 0.007; before ``--style-drop`` 0.022)."""
     from physlab.motion.evaluate import motion_statistics
 
     assert gen.text_model is not None, "the shipped checkpoint should carry a text model"
@@ -192,8 +195,8 @@ def test_the_text_model_walks_backwards_and_waves(real_data, gen):
     wave = motion_statistics(np.stack([gen("a person waves the right hand", seed=s)
                                        for s in range(4)])).mean(0)
     assert back[0] < 0.5 * real["walk-back"][0] < 0, (back, real)             # forward (m)
-    assert abs(back[2] / real["walk-back"][2] - 1) < 0.6, (back, real)        # speed (m/s)
-    assert wave[4] > 0.35 * real["wave-right-hand"][4], (wave, real)          # wrist travel
+    assert abs(back[2] / real["walk-back"][2] - 1) < 0.45, (back, real)       # speed (m/s)
+    assert wave[4] > 0.4 * real["wave-right-hand"][4], (wave, real)           # wrist travel
 
 
 def test_a_2d_sketch_steers_the_shipped_model_through_the_guidance(real_data, gen):
