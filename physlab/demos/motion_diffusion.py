@@ -659,14 +659,15 @@ def guidance_demo(guidance_scale=7.5, action="a person walks", seed=0, steps=50,
 
 
 # ---------------------------------------------------------------------------- Sec. 6: words
-def action_speeds(actions, seeds=(0, 1), steps=50, guidance_scale=7.5, checkpoint=None):
+def action_speeds(actions, seeds=(0, 1), steps=None, guidance_scale=7.5, checkpoint=None):
     """Mean horizontal pelvis speed (m/s) of generated clips of each text, averaged over
-    ``seeds``: dict action -> float."""
+    ``seeds``, with ``steps`` DDIM steps (None: ``generate``'s default): dict action -> float."""
     w = _check_scale(guidance_scale)
     gen = generator(checkpoint)
     with one_thread(), _quiet_encoder_loading(_unknown(gen, actions)):
         return {a: float(np.mean([root_speed(gen(a, seed=int(s), guidance_scale=w,
-                                                 steps=int(steps))).mean() for s in seeds]))
+                                                 steps=None if steps is None else int(steps))
+                                             ).mean() for s in seeds]))
                 for a in actions}
 
 
