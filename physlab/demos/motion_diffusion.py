@@ -663,11 +663,11 @@ def action_speeds(actions, seeds=(0, 1), steps=None, guidance_scale=7.5, checkpo
     """Mean horizontal pelvis speed (m/s) of generated clips of each text, averaged over
     ``seeds``, with ``steps`` DDIM steps (None: ``generate``'s default): dict action -> float."""
     w = _check_scale(guidance_scale)
+    steps = None if steps is None else int(steps)
     gen = generator(checkpoint)
     with one_thread(), _quiet_encoder_loading(_unknown(gen, actions)):
         return {a: float(np.mean([root_speed(gen(a, seed=int(s), guidance_scale=w,
-                                                 steps=None if steps is None else int(steps))
-                                             ).mean() for s in seeds]))
+                                                 steps=steps)).mean() for s in seeds]))
                 for a in actions}
 
 
