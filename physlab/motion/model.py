@@ -462,9 +462,11 @@ class MotionDenoiser(nn.Module):
         if not cfg.skip_pelvis:
             mask[ABS_PELVIS] = 0.0
         self.register_buffer("skip_mask", mask, persistent=False)
-        #: None or ``(mask, P)``: the feature columns where ``mask`` (D,) is 1 keep only the
-        #: frequencies of ``P`` (a narrower :func:`low_pass_matrix`; set by the sampler for the
-        #: pelvis path, :data:`~physlab.motion.sampling.PATH_FREQUENCIES`).
+        #: None or a tuple of ``(mask, P)`` pairs: the feature columns where ``mask`` (D,) is 1
+        #: keep only the frequencies of ``P`` (a narrower :func:`low_pass_matrix`; set by the
+        #: sampler for the pelvis path and the joints other than the arms of a text-only clip,
+        #: :data:`~physlab.motion.sampling.PATH_FREQUENCIES` and
+        #: :data:`~physlab.motion.sampling.BODY_FREQUENCIES`).
         self.column_low_pass = None
 
     def set_schedule(self, alphas_cumprod):
@@ -488,8 +490,7 @@ class MotionDenoiser(nn.Module):
         :attr:`column_low_pass` columns (what :meth:`forward` does to the head's output)."""
         if self.low_pass is not None:                                      # K lowest frequencies
             v = torch.einsum("st,btd->bsd", self.low_pass.to(v.dtype), v)
-        if self.column_low_pass is not None:
-            mask, P = self.column_low_pass
+        for mask, P in self.column_low_pass or ():
             mask = mask.to(v.dtype)
             v = v + mask * (torch.einsum("st,btd->bsd", P.to(v.dtype), v) - v)
         return v

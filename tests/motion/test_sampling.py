@@ -202,6 +202,9 @@ BAD = [
     ({"path_frequencies": 0}, ValueError, r"path_frequencies must be None or an integer in 1\.\.10"),
     ({"frequencies": 8, "path_frequencies": 9}, ValueError, r"in 1\.\.8 \(at most the frequen"),
     ({"path_frequencies": True}, ValueError, "path_frequencies must be None or an integer"),
+    ({"body_frequencies": 0}, ValueError, r"body_frequencies must be None or an integer in 1\.\.10"),
+    ({"frequencies": 6, "body_frequencies": 7}, ValueError, r"in 1\.\.6 \(at most the frequen"),
+    ({"body_frequencies": 8.0}, ValueError, "body_frequencies must be None or an integer"),
 ]
 
 
@@ -252,6 +255,40 @@ def test_path_frequencies_smooth_only_the_pelvis_path(gen, text):
     _, f = gen(text, trajectories_3d=traj, steps=STEPS, guidance_final=0, return_features=True)
     c = dct(f, type=2, norm="ortho", axis=0)
     assert np.abs(c[PATH_FREQUENCIES:, path]).max() > 1e-3 * np.abs(c[:, path]).max()
+
+
+def test_body_frequencies_smooth_the_legs_and_trunk_but_not_the_arms(gen, text):
+    """``body_frequencies=k``: the pelvis height and the columns of every joint but
+    ARM_JOINTS (absolute features: joint minus pelvis) lie in the span of the k lowest DCT-II
+    vectors (scipy's orthonormal DCT), while the arms' columns keep the frequencies above k;
+    None means BODY_FREQUENCIES for text only and every frequency kept under control."""
+    from scipy.fft import dct
+
+    from physlab.motion.features import ABS_BODY
+    from physlab.motion.sampling import ARM_JOINTS, BODY_FREQUENCIES, TEXT_FREQUENCIES
+    from physlab.motion.skeleton import JOINT_NAMES
+
+    assert set(ARM_JOINTS) <= set(JOINT_NAMES)
+    cols = {name: list(range(ABS_BODY.start + 3 * (j - 1), ABS_BODY.start + 3 * j))
+            for j, name in enumerate(JOINT_NAMES) if j > 0}
+    arms = [c for n in ARM_JOINTS for c in cols[n]]
+    body = [1] + [c for n, cs in cols.items() if n not in ARM_JOINTS for c in cs]
+    k0 = TEXT_FREQUENCIES
+    for k in (3, BODY_FREQUENCIES):
+        _, f = gen(text, steps=STEPS, body_frequencies=k, return_features=True)
+        c = dct(f, type=2, norm="ortho", axis=0)                         # (T, D)
+        assert np.abs(c[k:, body]).max() < 1e-4 * np.abs(c[:k, body]).max(), k
+        assert np.abs(c[k:k0, arms]).max() > 1e-3 * np.abs(c[:k0, arms]).max(), k
+    _, f = gen(text, steps=STEPS, body_frequencies=k0, return_features=True)
+    c = dct(f, type=2, norm="ortho", axis=0)
+    assert np.abs(c[BODY_FREQUENCIES:k0, body]).max() > 1e-3 * np.abs(c[:k0, body]).max()
+    np.testing.assert_array_equal(gen(text, steps=STEPS),
+                                  gen(text, steps=STEPS, body_frequencies=BODY_FREQUENCIES))
+    w = _window()
+    traj = {"left_wrist": w[:10, 20]}
+    _, f = gen(text, trajectories_3d=traj, steps=STEPS, guidance_final=0, return_features=True)
+    c = dct(f, type=2, norm="ortho", axis=0)
+    assert np.abs(c[BODY_FREQUENCIES:, body]).max() > 1e-3 * np.abs(c[:, body]).max()
 
 
 def test_inference_guidance_pulls_the_motion_onto_the_conditions(gen, text):
