@@ -571,7 +571,7 @@ def sampler_figure(results, real=None, backend="auto"):
     fig, axes = _figure(len(panels), 2.25, 2.3)
     for ax, (label, x, r) in zip(np.atleast_1d(axes), panels):
         st = motion_stats(x) if r is None else r
-        extra = "" if r is None else f", {r['seconds']:.1f} s"
+        extra = "" if r is None else f", {r['seconds']:.2g} s"
         _show(ax, strobe_image(x, size=(300, 260), backend=backend),
               f"{label}{extra}\nskating {st['foot_skating']:.2f}, PJ {st['pj']:.3f}",
               fontsize=7)
