@@ -490,16 +490,18 @@ def _steps(steps):
 
 
 def _sample(gen, data, conds, controlled, steps, guidance, seed, progress, label,
-            options=None, body_constraints=True, foot_lock=True, frequencies=None):
+            options=None, body_constraints=True, foot_lock=True, frequencies=None,
+            body_frequencies=None):
     """Generate one clip per window; ``options`` are the guidance options of a controlled
-    row (:data:`GUIDED`, :data:`UNGUIDED` or a :data:`GUIDANCE_VARIANTS` value)."""
+    row (:data:`GUIDED`, :data:`UNGUIDED` or a :data:`GUIDANCE_VARIANTS` value);
+    ``body_frequencies`` (None: the generator's default) applies to text-only rows."""
     from tqdm.auto import tqdm
 
     out, total = [], 0.0
     for i in tqdm(range(len(conds)), desc=label, disable=not progress, leave=False):
         c = conds[i]
         kw = ({**(c if isinstance(c, dict) else c.generator_kwargs()), **(options or UNGUIDED)}
-              if controlled else {})
+              if controlled else {"body_frequencies": body_frequencies})
         tic = time.perf_counter()
         out.append(gen(data["text"][i], seed=seed + i, guidance_scale=guidance, steps=steps,
                        body_constraints=body_constraints, foot_lock=foot_lock,
@@ -544,7 +546,7 @@ def evaluate(control, single_controlnet=None, windows=64, steps=None, guidance=2
              out=None, progress=True, data_root=None, body_constraints=True,
              control_guidance=1.0, guidance_variants=False, evaluator="default",
              foot_lock=True, frequencies=None, double_controlnet=None, pose_detail=False,
-             takes=TEST_TAKES, condition_scale=1.0, text_model=True):
+             takes=TEST_TAKES, condition_scale=1.0, text_model=True, body_frequencies=None):
     """Evaluate a control checkpoint on held-out Bandai-Namco windows (module docstring).
 
     Keyword names match the CLI flags.
@@ -576,6 +578,8 @@ def evaluate(control, single_controlnet=None, windows=64, steps=None, guidance=2
         (:func:`~physlab.motion.body.lock_feet`, part of the body constraints).
     frequencies : None (the generator's defaults) or the DCT frequencies x̂₀ keeps, for
         every row (:meth:`~physlab.motion.sampling.Generator.__call__`).
+    body_frequencies : None (:data:`~physlab.motion.sampling.BODY_FREQUENCIES`) or the DCT
+        frequencies the text-only row's legs and trunk keep (``Generator.__call__``).
     evaluator : ``"default"`` (the shipped :data:`~physlab.motion.evaluator.
         DEFAULT_EVALUATOR`), a path of a text–motion evaluator checkpoint, or None (no
         FID / R-precision / MM-Dist / Diversity columns).
@@ -632,6 +636,7 @@ def evaluate(control, single_controlnet=None, windows=64, steps=None, guidance=2
 
     rows = {"real clips": metrics(data["joints"])}
     x, s = _sample(main_gen, data, conds, False, label="text only",
+                   body_frequencies=body_frequencies,
                    guidance=float(guidance), **kw)
     rows["text only"] = metrics(x, s)
     if not isinstance(pose_detail, (bool, np.bool_)):
@@ -665,6 +670,7 @@ def evaluate(control, single_controlnet=None, windows=64, steps=None, guidance=2
                   "seed": int(seed), "min_t_r": MIN_T_R,
                   "test_takes": list(takes), "body_constraints": bool(body_constraints),
                   "foot_lock": bool(foot_lock), "frequencies": frequencies,
+                  "body_frequencies": body_frequencies,
                   "guidance_variants": bool(guidance_variants),
                   "pose_detail": bool(pose_detail),
                   "evaluator": None if evaluator is None else str(evaluator),
@@ -739,15 +745,17 @@ def motion_statistics(joints, fps=20.0):
 
 
 def text_adherence(control, contents=ADHERENCE_CONTENTS, seeds=4, steps=None, guidance=2.5,
-                   progress=True, data_root=None, frequencies=None, text_model=True):
+                   progress=True, data_root=None, frequencies=None, text_model=True,
+                   body_frequencies=None):
     """Does the text-only generator do what the action word says? (Next to the evaluator's
     R-precision, this says *what* differs: travel, speed, hand height.)
 
     For each content, ``seeds`` text-only clips of ``action_text(content)`` are compared with
     the windows of all Bandai-Namco clips of that content (both takes: the reference says what
     the action looks like; the held-out take lacks some actions) through
-    :func:`motion_statistics`; ``frequencies`` as :meth:`Generator.__call__` (None: its
-    text-only default); ``text_model`` as :func:`evaluate`.
+    :func:`motion_statistics`; ``frequencies`` and ``body_frequencies`` as
+    :meth:`Generator.__call__` (None: its text-only defaults); ``text_model`` as
+    :func:`evaluate`.
     Recognition: each generated clip is assigned the content whose mean real statistics are
     nearest (statistics scaled by their spread over the real windows); ``accuracy`` is the
     fraction assigned to the content asked for (chance ``1 / len(contents)``).
@@ -785,7 +793,8 @@ def text_adherence(control, contents=ADHERENCE_CONTENTS, seeds=4, steps=None, gu
     for k, c in enumerate(tqdm(contents, desc="text adherence", disable=not progress)):
         text = action_text(c)
         clips = np.stack([gen(text, seed=s, steps=steps, guidance_scale=guidance,
-                              frequencies=frequencies) for s in range(seeds)])
+                              frequencies=frequencies, body_frequencies=body_frequencies)
+                          for s in range(seeds)])
         made.append(clips)
         g = motion_statistics(clips)                                       # (S, 4)
         nearest = np.argmin((((g[:, None] - means[None]) / scale) ** 2).sum(-1), axis=1)
@@ -1398,6 +1407,10 @@ def _parser():
     p.add_argument("--frequencies", type=int, default=None,
                    help="DCT frequencies x̂₀ keeps in every row and in --adherence (default: "
                         "the generator's, 10; the checkpoint was trained with 16)")
+    p.add_argument("--body-frequencies", type=int, default=None,
+                   help="DCT frequencies the legs and trunk of text-only clips keep (text-only "
+                        "row, --adherence; default: the generator's, 8; the arms keep "
+                        "--frequencies)")
     return p
 
 
@@ -1442,6 +1455,7 @@ def main(argv=None):
                     data_root=args.data_root,
                     body_constraints=not args.no_body_constraints,
                     foot_lock=not args.no_foot_lock, frequencies=args.frequencies,
+                    body_frequencies=args.body_frequencies,
                     guidance_variants=args.guidance_variants, pose_detail=args.pose_detail,
                     takes=takes, text_model=not args.no_text_model,
                     evaluator=None if args.no_evaluator else args.evaluator)
@@ -1458,6 +1472,7 @@ def main(argv=None):
                                    steps=args.steps, guidance=args.guidance,
                                    progress=not args.no_progress,
                                    data_root=args.data_root, frequencies=args.frequencies,
+                                   body_frequencies=args.body_frequencies,
                                    text_model=not args.no_text_model)
     if rows:
         print(format_table(rows, takes))

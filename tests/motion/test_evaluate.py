@@ -160,6 +160,13 @@ def test_guidance_variant_rows(ckpts):
         evaluate(ckpts["control"], windows=1, steps=1, progress=False, guidance_variants="yes")
 
 
+def _fast_cli(ckpts, out, *args):
+    """The CLI on 2 windows, 2 steps, raw joints, no evaluator; rows.json into ``out``."""
+    return main(["--control", str(ckpts["control"]), "--windows", "2", "--steps", "2",
+                 "--no-progress", "--no-body-constraints", "--no-evaluator", *args,
+                 "--out", str(out)])
+
+
 def test_condition_scale_reaches_every_controlled_row_and_is_recorded(ckpts, tmp_path):
     """Eq. (14)'s w_c: 0 leaves only the text model (the conditions are ignored), so the
     controlled rows change; the text-only row does not; the CLI passes it and rows.json
@@ -167,9 +174,7 @@ def test_condition_scale_reaches_every_controlled_row_and_is_recorded(ckpts, tmp
     kw = dict(windows=2, steps=2, progress=False, body_constraints=False, evaluator=None)
     one = evaluate(ckpts["control"], **kw)
     out = tmp_path / "wc0"
-    zero = main(["--control", str(ckpts["control"]), "--windows", "2", "--steps", "2",
-                 "--no-progress", "--no-body-constraints", "--no-evaluator",
-                 "--condition-scale", "0", "--out", str(out)])
+    zero = _fast_cli(ckpts, out, "--condition-scale", "0")
     untimed = [k for k in one["text only"] if k != "seconds_per_clip"]
     assert [zero["text only"][k] for k in untimed] == [one["text only"][k] for k in untimed]
     for row in ("keypose + trajectory", "keypose + trajectory + guidance"):
@@ -181,6 +186,21 @@ def test_condition_scale_reaches_every_controlled_row_and_is_recorded(ckpts, tmp
     with pytest.raises(ValueError, match="--condition-scale applies to the 3D table"):
         main(["--control", str(ckpts["control"]), "--no-3d", "--sketch",
               "--condition-scale", "1.5"])
+
+
+def test_body_frequencies_reach_only_the_text_only_row_and_are_recorded(ckpts, tmp_path):
+    """--body-frequencies (the legs and trunk of text-only clips): the text-only row changes,
+    the controlled rows do not; rows.json records it; a bad value names the argument."""
+    kw = dict(windows=2, steps=2, progress=False, body_constraints=False, evaluator=None)
+    default = evaluate(ckpts["control"], **kw)
+    out = tmp_path / "body1"
+    one = _fast_cli(ckpts, out, "--body-frequencies", "1")
+    assert one["text only"]["auj"] != default["text only"]["auj"]
+    for row in ("keypose + trajectory", "keypose + trajectory + guidance"):
+        assert one[row]["trajectory_error_3d"] == default[row]["trajectory_error_3d"], row
+    assert json.loads((out / "rows.json").read_text())["config"]["body_frequencies"] == 1
+    with pytest.raises(ValueError, match="body_frequencies must be None or an integer"):
+        evaluate(ckpts["control"], body_frequencies=0, **kw)
 
 
 def test_cli_writes_table_and_rows(ckpts, tmp_path, capsys):
