@@ -62,3 +62,77 @@ def test_expert_denoisers_refuses_bad_input(capsys):
     with pytest.raises(SystemExit):
         _load("expert_denoisers").main(["a.pt", "b.pt", "1000"])
     assert "T_S must be in -1..999" in capsys.readouterr().err
+
+
+def test_pelvis_speed_analytic():
+    """A pelvis that steps 5 cm forward per frame at 20 fps moves at 1 m/s; sideways steps
+    count, height does not."""
+    import numpy as np
+
+    x = np.zeros((40, 22, 3))
+    x[:, 0, 2] = 0.05 * np.arange(40)
+    x[:, 0, 1] = np.sin(np.arange(40))                        # height: ignored
+    speed, forward = _load("pelvis_speed_by_level").pelvis_speed(x)
+    assert speed == pytest.approx(1.0) and forward == pytest.approx(0.05 * 39)
+    x[:, 0, 0] = 0.05 * np.arange(40)                         # and as much sideways
+    assert _load("pelvis_speed_by_level").pelvis_speed(x)[0] == pytest.approx(np.sqrt(2))
+
+
+def test_pelvis_speed_by_level_last_row_is_the_clip(capsys):
+    """One row per DDIM step; the last is the returned clip before the body constraints."""
+    import torch
+
+    from physlab.motion.sampling import DEFAULT_STEPS, load_generator
+
+    script = _load("pelvis_speed_by_level")
+    ckpt = str(Path(__file__).resolve().parents[1] / "data/motion/sketch2anim_control.pt")
+    text = "a person waves the right hand"
+    script.main([ckpt, text, "--seeds", "1", "--num-threads", "1"])
+    rows = [r for r in capsys.readouterr().out.splitlines() if r.startswith("| ")
+            and r[2].isdigit()]
+    assert len(rows) == DEFAULT_STEPS
+    assert int(rows[-1].split("|")[1]) < int(rows[0].split("|")[1])   # high levels first
+    torch.set_num_threads(1)
+    clip = load_generator(ckpt)(text, seed=0, body_constraints=False)
+    speed, _ = script.pelvis_speed(clip)
+    assert float(rows[-1].split("|")[2]) == pytest.approx(speed, abs=5e-4)
+
+
+def test_pelvis_speed_by_level_refuses_bad_input(capsys):
+    with pytest.raises(SystemExit):
+        _load("pelvis_speed_by_level").main(["x.pt", "--seeds", "0"])
+    assert "--seeds must be >= 1" in capsys.readouterr().err
+
+
+def _smoke_loss(argv, capsys):
+    _load("pelvis_step_loss").main(argv)
+    line = [r for r in capsys.readouterr().out.splitlines() if r.startswith("stage base:")][-1]
+    return float(line.split("loss ")[1].split(",")[0])
+
+
+def test_pelvis_step_loss_follows_weight_and_levels(real_data, tmp_path, capsys, monkeypatch):
+    """A huge weight raises the loss; on a band of levels no window falls in, it changes
+    nothing (same seed: same windows, levels and noise)."""
+    import physlab.motion.train as train
+
+    plain_fns = {"velocity_loss": train.velocity_loss, "recon_loss": train.recon_loss}
+    ckpt = str(Path(__file__).resolve().parents[1] / "data/motion/sketch2anim_control.pt")
+
+    def loss(lam, *levels):
+        for name, fn in plain_fns.items():        # the script patches train; undo it each time
+            monkeypatch.setattr(train, name, fn)
+        return _smoke_loss([str(lam), *levels, "--scale-from", ckpt, "--smoke", "--stage",
+                            "base", "--steps", "2", "--num-threads", "1", "--lambda-vel", "4",
+                            "--out", str(tmp_path / f"{lam}_{'_'.join(levels)}.pt")], capsys)
+
+    plain = loss(0)
+    heavy = loss(1e4)
+    assert heavy > 10 * plain
+    assert loss(1e4, "--levels", "0", "1") == heavy                   # every level: the default
+    assert loss(1e4, "--levels", "0.9999", "1") == plain              # t < 1000: no window
+
+
+def test_pelvis_step_loss_refuses_bad_levels(capsys):
+    with pytest.raises(SystemExit, match="0 <= LO < HI <= 1"):
+        _load("pelvis_step_loss").main(["1", "--levels", "0.6", "0.5", "--scale-from",
+                                        "x.pt", "--lambda-vel", "4"])

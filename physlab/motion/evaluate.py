@@ -906,15 +906,31 @@ def format_detail(res):
     return "\n".join(lines)
 
 
+def _ratio(gen, real, signed):
+    """``gen / real`` as a percentage (``signed``: ``gen / real − 1``, "+24 %"); "—" if
+    ``real`` is 0 or either is not finite."""
+    if not (np.isfinite(gen) and np.isfinite(real)) or real == 0:
+        return "—"
+    r = 100.0 * (gen / real - (1.0 if signed else 0.0))
+    return f"{r:+.0f} %" if signed else f"{r:.0f} %"
+
+
 def format_adherence(res):
-    """Markdown table of :func:`text_adherence` (real mean / generated mean per statistic)."""
+    """Markdown table of :func:`text_adherence` (real mean / generated mean per statistic),
+    with the two ratios issue 12's bounds are written in: the mean pelvis speed against the
+    real one (``gen / real − 1``; bound ±30 %) and the wrist travel as a fraction of the real
+    one (bound ≥ 50 % for the wave and raised hands), computed from the unrounded means."""
     head = ["action text", "real windows", "forward (m) real / gen", "left (m) real / gen",
             "speed (m/s) real / gen", "hand above head (m) real / gen",
-            "wrist travel (m/frame) real / gen", "recognised"]
+            "wrist travel (m/frame) real / gen", "speed gen vs real",
+            "wrist travel gen / real", "recognised"]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for c, r in res["per_content"].items():
-        cells = [f"{r['real'][k]:+.2f} / {r['generated'][k]:+.2f}" for k in STATISTICS[:-1]]
-        cells.append(f"{r['real'][STATISTICS[-1]]:.3f} / {r['generated'][STATISTICS[-1]]:.3f}")
+        real, gen = r["real"], r["generated"]
+        cells = [f"{real[k]:+.2f} / {gen[k]:+.2f}" for k in STATISTICS[:-1]]
+        cells.append(f"{real[STATISTICS[-1]]:.3f} / {gen[STATISTICS[-1]]:.3f}")
+        cells += [_ratio(gen["speed_m_s"], real["speed_m_s"], signed=True),
+                  _ratio(gen["wrist_travel_m"], real["wrist_travel_m"], signed=False)]
         ok = sum(x == c for x in r["recognised_as"])
         lines.append("| " + " | ".join([r["text"], str(r["n_real"]), *cells,
                                         f"{ok}/{len(r['recognised_as'])}"]) + " |")

@@ -295,6 +295,27 @@ def test_motion_statistics_analytic():
         motion_statistics(np.zeros((40, 21, 3)))
 
 
+def test_format_adherence_ratio_columns():
+    """The speed and wrist-travel ratios come from the unrounded means (a 0.0224 against
+    0.0726 m/s pelvis reads 0.02 / 0.07 in the rounded column, but +224 %)."""
+    from physlab.motion.evaluate import STATISTICS, format_adherence
+
+    def stats(speed, wrist):
+        return dict(zip(STATISTICS, (0.0, 0.0, speed, 0.1, wrist)))
+
+    res = {"per_content": {
+               "wave": {"text": "a person waves the right hand", "n_real": 10,
+                        "real": stats(0.0224, 0.043), "generated": stats(0.0726, 0.0215),
+                        "recognised_as": ["wave", "bow"]},
+               "bow": {"text": "a person bows", "n_real": 5, "real": stats(0.0, 0.0),
+                       "generated": stats(0.1, 0.01), "recognised_as": ["bow"]}},
+           "seeds": 2, "steps": 2, "guidance": 2.5, "accuracy": 0.67, "chance": 0.5}
+    rows = {line.split(" | ")[0][2:]: line.split(" | ")
+            for line in format_adherence(res).splitlines() if line.startswith("| a person")}
+    assert rows["a person waves the right hand"][7:] == ["+224 %", "50 %", "1/2 |"]
+    assert rows["a person bows"][7:9] == ["—", "—"]          # no real motion: no ratio
+
+
 def test_text_adherence_structure_and_errors(ckpts, real_data):
     from physlab.motion.evaluate import format_adherence, text_adherence
 
