@@ -54,8 +54,9 @@ def main(argv=None):
     for seed in range(args.seeds):
         recorded.clear()
         gen(args.text, seed=seed)
-        for t, x0 in recorded:
-            by_level.setdefault(t, []).append(pelvis_speed(gen._decode(x0)[1]))
+        with gen._using_text_model(True):         # a text model decodes with its statistics
+            for t, x0 in recorded:
+                by_level.setdefault(t, []).append(pelvis_speed(gen._decode(x0)[1]))
     print(f"{args.text!r}, {args.seeds} seeds, {args.checkpoint}")
     print("| level t | pelvis speed of x̂₀ (m/s) | forward travel (m) |\n|---|---|---|")
     for t in sorted(by_level, reverse=True):

@@ -172,7 +172,8 @@ def load_model(path_or_ckpt):
     float32), ``scheduler`` (:class:`NoiseScheduler`), ``stats`` (:class:`FeatureStats`),
     ``text_cache`` (:class:`EmbeddingCache`), ``config`` (:class:`DenoiserConfig`),
     ``stage``, ``step``, ``text_model`` (:class:`MotionDenoiser` for text-only requests, eval,
-    float32, or None: :func:`attach_text_model`).
+    float32, or None: :func:`attach_text_model`), ``text_stats`` (its own
+    :class:`FeatureStats` where they differ from ``stats``, else None).
     """
     from .text import EmbeddingCache
 
@@ -183,16 +184,18 @@ def load_model(path_or_ckpt):
     scheduler = NoiseScheduler.from_dict(ckpt["scheduler"])
     (model if isinstance(model, MotionDenoiser) else model.base).set_schedule(
         scheduler.alphas_cumprod)                                          # config.skip only
-    text_model = None
+    text_model = text_stats = None
     if ckpt.get("text_model") is not None:
         text_model = MotionDenoiser(DenoiserConfig.from_dict(ckpt["text_model"]["model_config"]))
         text_model.load_state_dict({k: v.float() for k, v in ckpt["text_model"]["model"].items()})
         text_model.eval().set_schedule(scheduler.alphas_cumprod)
+        if ckpt["text_model"].get("feature_stats") is not None:
+            text_stats = FeatureStats(**ckpt["text_model"]["feature_stats"])
     return {"model": model, "scheduler": scheduler,
             "stats": FeatureStats(**ckpt["feature_stats"]),
             "text_cache": EmbeddingCache.from_state_dict(ckpt["text_cache"]),
             "config": model.config, "stage": ckpt["stage"], "step": ckpt["step"],
-            "text_model": text_model}
+            "text_model": text_model, "text_stats": text_stats}
 
 
 def export_weights(src, dst, dtype=torch.float16):
@@ -229,9 +232,11 @@ def attach_text_model(control, text_base, out=None, dtype=torch.float16):
     text only from the ControlNet's base; this is physlab's deviation, and a control
     checkpoint without a text model keeps the paper's behaviour.
 
-    Both must come from the same data and noise schedule: the feature statistics, scheduler,
+    Both must come from the same data and noise schedule: the feature means, scheduler,
     training takes and :data:`SHARED_CONFIG` fields are compared, and a mismatch is a
-    ValueError naming the field. ``out`` (default: ``control`` itself) is written atomically;
+    ValueError naming the field. Feature scales (std) may differ (a text base trained with a
+    finer pelvis path scale, ``train --pelvis-scale``): the text model then carries its own
+    statistics, and the generator decodes its clips with them. ``out`` (default: ``control`` itself) is written atomically;
     the text model's weights are cast to ``dtype`` (fp16, as :func:`export_weights`). Returns
     the Path written."""
     ctrl, text = load_checkpoint(control), load_checkpoint(text_base)
@@ -247,12 +252,12 @@ def attach_text_model(control, text_base, out=None, dtype=torch.float16):
             raise ValueError(f"model_config.{field} differs: {control} has {a.get(field)!r}, "
                              f"{text_base} {b.get(field)!r}; train the text base with the "
                              f"control model's settings")
-    for key in ("mean", "std"):
-        if not np.allclose(ctrl["feature_stats"][key], text["feature_stats"][key],
-                           rtol=1e-6, atol=1e-9):
-            raise ValueError(f"feature_stats.{key} differs between {control} and {text_base}: "
-                             f"they were trained on different clips; train both on the same "
-                             f"data")
+    if not np.allclose(ctrl["feature_stats"]["mean"], text["feature_stats"]["mean"],
+                       rtol=1e-6, atol=1e-9):
+        raise ValueError(f"feature_stats.mean differs between {control} and {text_base}: "
+                         f"they were trained on different clips; train both on the same data")
+    same_std = np.allclose(ctrl["feature_stats"]["std"], text["feature_stats"]["std"],
+                           rtol=1e-6, atol=1e-9)
     sa, sb = NoiseScheduler.from_dict(ctrl["scheduler"]), NoiseScheduler.from_dict(
         text["scheduler"])
     if not torch.allclose(sa.alphas_cumprod, sb.alphas_cumprod):
@@ -265,6 +270,9 @@ def attach_text_model(control, text_base, out=None, dtype=torch.float16):
     ctrl["text_model"] = {
         "model_config": b, "step": text.get("step"), "train_config": text.get("train_config"),
         "model": _cast(text["model"], dtype)}
+    if not same_std:            # e.g. a finer pelvis path scale (train --pelvis-scale)
+        ctrl["text_model"]["feature_stats"] = {k: np.asarray(v, dtype=float).copy()
+                                               for k, v in text["feature_stats"].items()}
     return save_checkpoint(control if out is None else out, ctrl)
 
 

@@ -231,13 +231,18 @@ class Generator:
         frozen base (:func:`~physlab.motion.checkpoint.attach_text_model`: physlab's
         deviation from Sketch2Anim, which samples text only from the ControlNet's base). The
         shipped checkpoint has one; set it to None for the paper's behaviour.
+    text_stats : None or the :class:`~physlab.motion.features.FeatureStats` the text model
+        was trained with, where they differ from ``stats`` (a text base with a finer pelvis
+        path scale, ``train --pelvis-scale``); None: ``stats``. :attr:`stats` gives them
+        while the text model samples.
     """
 
-    def __init__(self, model, scheduler, stats, text_cache, stage, path=None, text_model=None):
-        self.model, self.scheduler, self.stats = model, scheduler, stats
+    def __init__(self, model, scheduler, stats, text_cache, stage, path=None, text_model=None,
+                 text_stats=None):
+        self.model, self.scheduler, self._stats = model, scheduler, stats
         self.text_cache, self.stage, self.path = text_cache, stage, path
         self.config = model.config
-        self.text_model = text_model
+        self.text_model, self.text_stats = text_model, text_stats
         self.train_takes = ()   # Bandai-Namco takes trained on, when the checkpoint says
         self.fused = True
         self._fused, self._modules = None, []
@@ -272,7 +277,8 @@ class Generator:
         if (ckpt.get("train_config") or {}).get("text_encoder") == "hash":
             cache.encoder = hash_encoder        # smoke / test models: the fake encoder
         gen = cls(loaded["model"], loaded["scheduler"], loaded["stats"], cache,
-                  loaded["stage"], path, text_model=loaded["text_model"])
+                  loaded["stage"], path, text_model=loaded["text_model"],
+                  text_stats=loaded["text_stats"])
         gen.train_takes = tuple(ckpt.get("train_takes") or ())    # () = not recorded
         return gen
 
@@ -350,6 +356,14 @@ class Generator:
         if self._text_active:
             return self.text_model
         return self.model.base if self.has_control else self.model
+
+    @property
+    def stats(self):
+        """The feature statistics of the network sampling now: :attr:`text_stats` inside
+        :meth:`_using_text_model` if the text model has its own, else the checkpoint's."""
+        if self._text_active and self.text_stats is not None:
+            return self.text_stats
+        return self._stats
 
     @contextlib.contextmanager
     def _using_text_model(self, on):
@@ -837,7 +851,8 @@ class Generator:
         # The result is the clean estimate x̂₀ of the last step, not the sampler's x at the
         # first training level (ᾱ_0 < 1 in MLD's schedule): that x keeps ~70 % of the last
         # step's residual x_t − √ᾱ_t x̂₀ and so undoes most of a last-step guidance.
-        feats, joints = self._decode(x0)                            # (T, D), (N, 22, 3)
+        with self._using_text_model(text_only):            # its statistics decode its x̂₀
+            feats, joints = self._decode(x0)                        # (T, D), (N, 22, 3)
         if body_constraints and np.all(np.isfinite(joints)):
             lengths = clip_bone_lengths(c["keypose"][None]) if c["has_keypose"] else None
             toes = [TRAJECTORY_JOINTS.index(j) for j in FOOT_TOES]

@@ -98,7 +98,7 @@ from .dataset import (
     turn_windows,
 )
 from .diffusion import PREDICTION_TYPES, NoiseScheduler, SchedulerConfig
-from .features import FeatureStats, encode_motion
+from .features import ABS_FEATURE_GROUPS, FeatureStats, encode_motion
 from .model import (
     ControlledDenoiser,
     DenoiserConfig,
@@ -230,6 +230,11 @@ class TrainConfig:
                                     # then means the action in any style, as a storyboard's bare
                                     # action word does; 0 = off: the plain text is trained on the
                                     # "normal" style's windows only (none for some actions)
+    pelvis_scale: float = 1.0       # "absolute" features: the pelvis x and z are normalised
+                                    # by their std / this (a fresh run's statistics; the
+                                    # checkpoint keeps them): > 1 makes a noise level that many
+                                    # times smaller in metres on the path, so a near-still
+                                    # action's sway is seen (docs/motion_experiments.md)
     text_encoder: str = "minilm"    # "minilm" (text.ActionEncoder) | "hash" (tests: fake)
     text_cache: str = ""            # optional EmbeddingCache .npz to read / fill
     smoke: bool = False             # tiny model, few steps, few clips: seconds
@@ -264,10 +269,13 @@ class TrainConfig:
                      "cond_drop_prob", "drop_keypose", "drop_trajectory", "single_joint",
                      "lambda_match",
                      "lambda_recon", "lambda_contrast", "lambda_tr_2d", "tau", "sketch_noise",
-                     "balance", "snr_cap", "turn_augment"):
+                     "balance", "snr_cap", "turn_augment", "pelvis_scale"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
                 raise ValueError(f"{name} must be a finite number, got {v!r}")
+        if not 0.1 <= self.pelvis_scale <= 100:
+            raise ValueError(f"pelvis_scale must be in [0.1, 100] (1 = the data's std; e.g. 4), "
+                             f"got {self.pelvis_scale}")
         if not 0 <= self.turn_augment <= 180:
             raise ValueError(f"turn_augment must be in [0, 180] degrees (0 = off; e.g. 90), got "
                              f"{self.turn_augment}")
@@ -416,6 +424,13 @@ def prepare_data(cfg: TrainConfig, stats: FeatureStats | None = None, cache=None
                       for w in win.joints])                       # (N, 39, 137) | (N, 40, 70)
     if stats is None:
         stats = FeatureStats.from_features(feats, representation=representation)
+        if cfg.pelvis_scale != 1:
+            if representation != "absolute":
+                raise ValueError(f"pelvis_scale {cfg.pelvis_scale} needs the 'absolute' "
+                                 f"representation (its pelvis path columns), got "
+                                 f"{representation!r}; use --pelvis-scale 1")
+            path = [ABS_FEATURE_GROUPS["pelvis"].start, ABS_FEATURE_GROUPS["pelvis"].start + 2]
+            stats.std[path] /= cfg.pelvis_scale                       # pelvis x and z
     plain = [action_text(c) for c in win.content]            # the texts without a style adverb
     texts = sorted(set(win.text) | set(plain))
     if cache is None:
@@ -654,6 +669,9 @@ def train(**kwargs):
         if user_mk and rank == 0:
             print(f"note: model options {sorted(user_mk)} ignored; the model config comes from "
                   f"{out if resume else cfg.base_ckpt}", file=sys.stderr)
+        if cfg.pelvis_scale != 1 and not resume and rank == 0:
+            print(f"note: --pelvis-scale {cfg.pelvis_scale:g} ignored; the feature statistics "
+                  f"come from {cfg.base_ckpt}", file=sys.stderr)
     else:
         rep = mk.pop("representation", DEFAULT_REPRESENTATION)
         dims = DenoiserConfig.for_representation(rep)

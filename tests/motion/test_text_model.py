@@ -94,6 +94,33 @@ def test_attaching_refuses_checkpoints_that_do_not_fit(ckpts, case, match, tmp_p
     assert ckpts["control"].read_bytes() == before            # nothing written on failure
 
 
+def test_a_text_model_with_its_own_feature_scale_decodes_with_it(ckpts, tmp_path):
+    """A text base whose pelvis path std differs (train --pelvis-scale) attaches; its
+    text-only clips equal the stand-alone base's, decoded with its own statistics, and the
+    controlled ones stay the control model's."""
+    def finer(c):
+        std = np.asarray(c["feature_stats"]["std"], dtype=float).copy()
+        std[[0, 2]] /= 4
+        c["feature_stats"]["std"] = std
+    text = _altered(ckpts, "finer.pt", finer)
+    out = attach_text_model(ckpts["control"], text, tmp_path / "finer_attached.pt",
+                            dtype=torch.float32)
+    g = Generator.from_checkpoint(out)
+    np.testing.assert_allclose(g.text_stats.std, load_checkpoint(text)["feature_stats"]["std"])
+    assert g.stats is g._stats                                 # outside a text-only call
+    action = g.text_cache.texts[0]
+    alone = Generator.from_checkpoint(text)(action, seed=4, steps=STEPS)
+    np.testing.assert_array_equal(g(action, seed=4, steps=STEPS), alone)
+    assert np.abs(alone - Generator.from_checkpoint(ckpts["attached"])(
+        action, seed=4, steps=STEPS)).max() > 1e-3             # the scale matters
+    pose = alone[0]
+    np.testing.assert_array_equal(
+        g(action, seed=4, steps=STEPS, keypose_3d=pose),
+        Generator.from_checkpoint(ckpts["control"])(action, seed=4, steps=STEPS, keypose_3d=pose))
+    # the same std: no statistics of its own
+    assert Generator.from_checkpoint(ckpts["attached"]).text_stats is None
+
+
 def test_the_command_line_attaches_and_reports_errors_in_one_line(ckpts, tmp_path, capsys):
     out = tmp_path / "cli.pt"
     main(["attach-text", str(ckpts["control"]), str(ckpts["text"]), "--out", str(out)])

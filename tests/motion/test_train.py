@@ -660,3 +660,32 @@ def test_cli_says_when_a_rerun_has_nothing_left_to_train(base_run, tmp_path, cap
                 "--no-progress"])
     out = capsys.readouterr().out
     assert res["trained"] == 0 and "nothing left to train" in out and "nan" not in out, out
+
+
+def test_pelvis_scale_divides_the_path_std_only(real_data, tmp_path, capsys):
+    """``pelvis_scale`` F: the statistics of the pelvis x and z are the data's std / F (the
+    features themselves F times larger), every other column as before; a control stage on
+    that base keeps them; bad values and the relative representation are refused."""
+    from physlab.motion.features import ABS_FEATURE_GROUPS
+
+    cfg = {"max_clips": 3, "text_encoder": "hash", "progress": False}
+    plain = prepare_data(TrainConfig(**cfg), representation="absolute")
+    finer = prepare_data(TrainConfig(pelvis_scale=4, **cfg), representation="absolute")
+    path = [ABS_FEATURE_GROUPS["pelvis"].start, ABS_FEATURE_GROUPS["pelvis"].start + 2]
+    np.testing.assert_allclose(finer["stats"].std[path], plain["stats"].std[path] / 4)
+    np.testing.assert_array_equal(np.delete(finer["stats"].std, path),
+                                  np.delete(plain["stats"].std, path))
+    np.testing.assert_allclose(finer["x0"][..., path], 4 * plain["x0"][..., path], rtol=1e-5,
+                               atol=1e-5)
+    base = train(stage="base", out=str(tmp_path / "b.pt"), steps=1, pelvis_scale=4,
+                 representation="absolute", **SMOKE)["path"]
+    std = load_checkpoint(base)["feature_stats"]["std"]
+    ctrl = train(stage="control", base_ckpt=str(base), out=str(tmp_path / "c.pt"), steps=1,
+                 pelvis_scale=2, **SMOKE)["path"]
+    np.testing.assert_array_equal(load_checkpoint(ctrl)["feature_stats"]["std"], std)
+    assert "--pelvis-scale 2 ignored" in capsys.readouterr().err
+    for bad in (0.0, -1.0, float("nan"), 1000.0):
+        with pytest.raises(ValueError, match="pelvis_scale must be"):
+            TrainConfig(pelvis_scale=bad)
+    with pytest.raises(ValueError, match="needs the 'absolute' representation"):
+        prepare_data(TrainConfig(pelvis_scale=4, **cfg), representation="relative")
