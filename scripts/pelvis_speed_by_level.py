@@ -21,10 +21,13 @@ import numpy as np
 
 
 def pelvis_speed(joints, fps=20.0):
-    """Mean horizontal pelvis speed (m/s) and forward travel (m) of ``(N, 22, 3)`` joints."""
-    p = np.asarray(joints)[:, 0]
-    step = np.linalg.norm(np.diff(p[:, [0, 2]], axis=0), axis=1)
-    return float(step.mean() * fps), float(p[-1, 2] - p[0, 2])
+    """Mean horizontal pelvis speed (m/s) and forward travel (m) of ``(N, 22, 3)`` joints:
+    the ``speed_m_s`` and ``forward_m`` columns of
+    :func:`physlab.motion.evaluate.motion_statistics`."""
+    from physlab.motion.evaluate import STATISTICS, motion_statistics
+
+    s = dict(zip(STATISTICS, motion_statistics(joints, fps=fps)[0]))
+    return float(s["speed_m_s"]), float(s["forward_m"])
 
 
 def main(argv=None):
@@ -71,7 +74,10 @@ def main(argv=None):
     except (OSError, ValueError):           # no ../shared/data: no real row
         win = None
     if win is not None and len(win.joints):
-        speed = np.mean([pelvis_speed(j)[0] for j in win.joints])
+        from physlab.motion.evaluate import STATISTICS, motion_statistics
+
+        stats = motion_statistics(win.joints, fps=win.fps)
+        speed = stats[:, STATISTICS.index("speed_m_s")].mean()
         print(f"| real ({len(win.joints)} windows) | {speed:.3f} | |")
 
 

@@ -98,7 +98,7 @@ from .dataset import (
     turn_windows,
 )
 from .diffusion import PREDICTION_TYPES, NoiseScheduler, SchedulerConfig
-from .features import ABS_FEATURE_GROUPS, FeatureStats, encode_motion
+from .features import ABS_PELVIS, FeatureStats, encode_motion
 from .model import (
     ControlledDenoiser,
     DenoiserConfig,
@@ -429,8 +429,7 @@ def prepare_data(cfg: TrainConfig, stats: FeatureStats | None = None, cache=None
                 raise ValueError(f"pelvis_scale {cfg.pelvis_scale} needs the 'absolute' "
                                  f"representation (its pelvis path columns), got "
                                  f"{representation!r}; use --pelvis-scale 1")
-            path = [ABS_FEATURE_GROUPS["pelvis"].start, ABS_FEATURE_GROUPS["pelvis"].start + 2]
-            stats.std[path] /= cfg.pelvis_scale                       # pelvis x and z
+            stats.std[[ABS_PELVIS.start, ABS_PELVIS.start + 2]] /= cfg.pelvis_scale   # x, z
     plain = [action_text(c) for c in win.content]            # the texts without a style adverb
     texts = sorted(set(win.text) | set(plain))
     if cache is None:
