@@ -138,7 +138,8 @@ motion-model: $(STAMP) motion-evaluator
 		--base-ckpt $(MOTION_RUNS)/control.pt \
 		--out $(MOTION_RUNS)/align.pt --export $(MOTION_EXPORT)/sketch2anim_control.pt
 	$(MOTION_TRAIN) --stage base --steps 10000 --skip --no-skip-pelvis --snr-cap 10 \
-		--balance 0.5 --lambda-vel 4 --style-drop 0.3 --out $(MOTION_RUNS)/text_base.pt
+		--balance 0.5 --lambda-vel 4 --style-drop 0.3 --pelvis-scale 4 \
+		--out $(MOTION_RUNS)/text_base.pt
 	$(PY) -m physlab.motion.checkpoint attach-text $(MOTION_EXPORT)/sketch2anim_control.pt \
 		$(MOTION_RUNS)/text_base.pt
 	$(PY) -m physlab.motion.baselines train-lifter --steps 3000 --num-threads 2 \

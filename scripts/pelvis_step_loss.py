@@ -47,16 +47,16 @@ def main(argv=None):
     plain, plain_recon = train.velocity_loss, train.recon_loss
     level = {}
 
-    def recon_loss(out, target, t, scheduler, snr_cap=0.0):
+    def recon_loss(out, target, t, scheduler, snr_cap=0.0, weights=None):
         n = len(scheduler.alphas_cumprod)
         level["keep"] = ((t >= lo * n) & (t < hi * n)).float()                       # (B,)
-        return plain_recon(out, target, t, scheduler, snr_cap)
+        return plain_recon(out, target, t, scheduler, snr_cap, weights)
 
-    def velocity_loss(x0_hat, x0):
+    def velocity_loss(x0_hat, x0, weights=None):
         d = (x0_hat[:, 1:, :3] - x0_hat[:, :-1, :3]) - (x0[:, 1:, :3] - x0[:, :-1, :3])
         per_window = ((d * scale.to(d.dtype)) ** 2).mean(dim=(1, 2))               # (B,)
         keep = level.get("keep", torch.ones_like(per_window)).to(per_window.dtype)
-        return plain(x0_hat, x0) + (lam / lam_vel) * (keep * per_window).mean()
+        return plain(x0_hat, x0, weights) + (lam / lam_vel) * (keep * per_window).mean()
 
     train.velocity_loss = velocity_loss        # train.main looks both up in its own module
     train.recon_loss = recon_loss

@@ -2,6 +2,7 @@
 import importlib.util
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 SCRIPTS = Path(__file__).resolve().parents[1] / "scripts"
@@ -136,3 +137,24 @@ def test_pelvis_step_loss_refuses_bad_levels(capsys):
     with pytest.raises(SystemExit, match="0 <= LO < HI <= 1"):
         _load("pelvis_step_loss").main(["1", "--levels", "0.6", "0.5", "--scale-from",
                                         "x.pt", "--lambda-vel", "4"])
+
+
+def test_jerk_by_joints_finds_the_jerking_group():
+    """A wrist that jerks alone: the arms carry all of the clip's jerk, the other groups none;
+    the groups cover every joint once."""
+    script = _load("jerk_by_joints")
+    groups = script.joint_groups()
+    assert sorted(sum(groups.values(), [])) == list(range(22))
+    x = np.zeros((2, 40, 22, 3))
+    x[:, 20:, 20, 0] = 0.01                                    # the left wrist steps once
+    r = script.jerk_by_group(x)
+    assert r["arms"] == pytest.approx(r["all"]) and r["all"] > 0
+    assert r["legs"] == r["pelvis"] == r["trunk"] == 0
+    x[:, :, 0, 2] = 0.05 * np.arange(40)                       # a steady walk adds no jerk
+    assert script.jerk_by_group(x)["pelvis"] == pytest.approx(0, abs=1e-12)
+
+
+def test_jerk_by_joints_refuses_bad_input(capsys):
+    with pytest.raises(SystemExit):
+        _load("jerk_by_joints").main(["x.pt", "--windows", "0"])
+    assert "--windows must be >= 1" in capsys.readouterr().err

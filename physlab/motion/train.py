@@ -83,7 +83,6 @@ from pathlib import Path
 
 import numpy as np
 import torch
-import torch.nn.functional as F
 
 
 from .dataset import (
@@ -235,6 +234,9 @@ class TrainConfig:
                                     # checkpoint keeps them): > 1 makes a noise level that many
                                     # times smaller in metres on the path, so a near-still
                                     # action's sway is seen (docs/motion_experiments.md)
+    pelvis_loss_weight: float = 1.0  # stage base: weight of the pelvis x and z columns in the
+                                    # reconstruction and velocity losses; with pelvis_scale F,
+                                    # 1 / F**2 gives the path the loss weight it has at F = 1
     text_encoder: str = "minilm"    # "minilm" (text.ActionEncoder) | "hash" (tests: fake)
     text_cache: str = ""            # optional EmbeddingCache .npz to read / fill
     smoke: bool = False             # tiny model, few steps, few clips: seconds
@@ -269,13 +271,17 @@ class TrainConfig:
                      "cond_drop_prob", "drop_keypose", "drop_trajectory", "single_joint",
                      "lambda_match",
                      "lambda_recon", "lambda_contrast", "lambda_tr_2d", "tau", "sketch_noise",
-                     "balance", "snr_cap", "turn_augment", "pelvis_scale"):
+                     "balance", "snr_cap", "turn_augment", "pelvis_scale",
+                     "pelvis_loss_weight"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
                 raise ValueError(f"{name} must be a finite number, got {v!r}")
         if not 0.1 <= self.pelvis_scale <= 100:
             raise ValueError(f"pelvis_scale must be in [0.1, 100] (1 = the data's std; e.g. 4), "
                              f"got {self.pelvis_scale}")
+        if not 0 < self.pelvis_loss_weight <= 100:
+            raise ValueError(f"pelvis_loss_weight must be in (0, 100] (1 = as every other "
+                             f"column; e.g. 1 / pelvis_scale**2), got {self.pelvis_loss_weight}")
         if not 0 <= self.turn_augment <= 180:
             raise ValueError(f"turn_augment must be in [0, 180] degrees (0 = off; e.g. 90), got "
                              f"{self.turn_augment}")
@@ -447,7 +453,7 @@ def prepare_data(cfg: TrainConfig, stats: FeatureStats | None = None, cache=None
                                            dtype=torch.float64)}
 
 
-def recon_loss(out, target, t, scheduler, snr_cap=0.0):
+def recon_loss(out, target, t, scheduler, snr_cap=0.0, weights=None):
     """The denoising loss of Eq. (5) on the network output, optionally weighted per window.
 
     ``snr_cap = 0``: ``mean ‖out − target‖²``. ``snr_cap > 0`` (x₀-prediction): window ``b``'s
@@ -460,13 +466,31 @@ def recon_loss(out, target, t, scheduler, snr_cap=0.0):
     the plain x₀ loss.
 
     out, target : (B, T, D); t : (B,) int64 levels; scheduler : NoiseScheduler.
+    weights : None or (D,) tensor, each feature column's weight in the squared error
+        (:func:`column_weights`).
     Returns a scalar tensor.
     """
+    se = (out - target) ** 2
+    if weights is not None:
+        se = se * weights
     if not snr_cap:
-        return F.mse_loss(out, target)
+        return se.mean()
     abar = scheduler.alphas_cumprod.to(out.dtype)[t]                        # (B,)
     w = torch.clamp(1.0 / (1.0 - abar), max=float(snr_cap))                 # (B,)
-    return (w * ((out - target) ** 2).mean(dim=(1, 2))).mean()
+    return (w * se.mean(dim=(1, 2))).mean()
+
+
+def column_weights(dim, pelvis_weight=1.0):
+    """Per-column loss weights of the absolute features: 1, and ``pelvis_weight`` on the
+    pelvis x and z columns (:data:`~physlab.motion.features.ABS_PELVIS`); None when all are 1.
+    With ``pelvis_scale`` F those columns' errors are F times larger in units, so their
+    squared error counts F² times as much as at F = 1; ``pelvis_weight = 1 / F²`` undoes that
+    while keeping the finer noise on the path."""
+    if pelvis_weight == 1:
+        return None
+    w = torch.ones(dim)
+    w[[ABS_PELVIS.start, ABS_PELVIS.start + 2]] = float(pelvis_weight)
+    return w
 
 
 def action_weights(actions, balance=0.0):
@@ -537,12 +561,14 @@ def condition_batch(windows, rng, min_t_r=5, drop_keypose=0.0, drop_trajectory=0
             "keypose_mask": torch.tensor(has_key)}
 
 
-def velocity_loss(x0_hat, x0):
+def velocity_loss(x0_hat, x0, weights=None):
     """MDM's velocity loss (Tevet et al. 2023, Eq. (4), ``L_vel``) written on the normalised
     feature rows: mean squared error of the frame-to-frame differences,
     ``‖(x̂₀[i+1] − x̂₀[i]) − (x₀[i+1] − x₀[i])‖²``. It penalises high-frequency jitter of
-    x̂₀ that the per-row reconstruction loss barely sees. x0_hat, x0 : (B, T, D)."""
-    return F.mse_loss(x0_hat[:, 1:] - x0_hat[:, :-1], x0[:, 1:] - x0[:, :-1])
+    x̂₀ that the per-row reconstruction loss barely sees. x0_hat, x0 : (B, T, D); weights :
+    None or (D,) column weights (:func:`column_weights`)."""
+    se = ((x0_hat[:, 1:] - x0_hat[:, :-1]) - (x0[:, 1:] - x0[:, :-1])) ** 2
+    return (se if weights is None else se * weights).mean()
 
 
 # ----------------------------------------------------------------------------- checkpoints
@@ -695,6 +721,13 @@ def train(**kwargs):
         raise ValueError(f"model n_frames={model_cfg.n_frames} but windows have "
                          f"{data['x0'].shape[1]} feature rows")
     p_drop = model_cfg.cond_drop_prob if cfg.cond_drop_prob < 0 else cfg.cond_drop_prob
+    if cfg.pelvis_loss_weight != 1 and model_cfg.representation != "absolute":
+        raise ValueError(f"pelvis_loss_weight {cfg.pelvis_loss_weight} needs the 'absolute' "
+                         f"representation, got {model_cfg.representation!r}")
+    if cfg.pelvis_loss_weight != 1 and cfg.stage != "base" and rank == 0:
+        print(f"note: --pelvis-loss-weight {cfg.pelvis_loss_weight:g} applies to --stage base "
+              f"only; ignored", file=sys.stderr)
+    col_w = column_weights(model_cfg.feature_dim, cfg.pelvis_loss_weight)
 
     base = MotionDenoiser(model_cfg).set_schedule(sched.alphas_cumprod)  # config.skip only
     if cfg.stage == "base":
@@ -806,10 +839,10 @@ def train(**kwargs):
             if cfg.stage == "base":
                 with autocast():
                     out_ = net(x_t, t, a, drop).float()
-                loss = recon_loss(out_, target, t, sched, cfg.snr_cap)
+                loss = recon_loss(out_, target, t, sched, cfg.snr_cap, col_w)
                 parts = {}
                 if cfg.lambda_vel > 0:
-                    l_vel = velocity_loss(sched.split_output(out_, x_t, t)[0], x0)
+                    l_vel = velocity_loss(sched.split_output(out_, x_t, t)[0], x0, col_w)
                     loss = loss + cfg.lambda_vel * l_vel
                     parts = {"vel": l_vel.item()}
             elif cfg.stage == "align":

@@ -689,3 +689,35 @@ def test_pelvis_scale_divides_the_path_std_only(real_data, tmp_path, capsys):
             TrainConfig(pelvis_scale=bad)
     with pytest.raises(ValueError, match="needs the 'absolute' representation"):
         prepare_data(TrainConfig(pelvis_scale=4, **cfg), representation="relative")
+
+
+def test_pelvis_loss_weight_weights_the_path_columns_of_both_losses():
+    """``column_weights``: 1 everywhere but the pelvis x and z; the reconstruction and
+    velocity losses with them are the column-weighted means (a path error of e counts
+    w·e² / D), and an error elsewhere counts as before; bad weights are refused."""
+    from physlab.motion.diffusion import NoiseScheduler, SchedulerConfig
+    from physlab.motion.features import ABS_PELVIS
+    from physlab.motion.train import column_weights, recon_loss, velocity_loss
+
+    assert column_weights(70, 1.0) is None
+    w = column_weights(70, 0.25)
+    path = [ABS_PELVIS.start, ABS_PELVIS.start + 2]
+    assert w.shape == (70,) and torch.all(w[path] == 0.25) and w.sum() == 70 - 2 * 0.75
+    sched = NoiseScheduler(SchedulerConfig())
+    t = torch.tensor([0, 999])
+    target = torch.zeros(2, 40, 70)
+    on_path, elsewhere = target.clone(), target.clone()
+    on_path[..., path[0]] = 2.0
+    elsewhere[..., path[0] + 1] = 2.0                                      # the pelvis height
+    for cap in (0.0, 10.0):
+        plain = recon_loss(on_path, target, t, sched, cap)
+        assert torch.allclose(recon_loss(on_path, target, t, sched, cap, w), 0.25 * plain)
+        assert torch.allclose(recon_loss(elsewhere, target, t, sched, cap, w),
+                              recon_loss(elsewhere, target, t, sched, cap))
+    ramp = target.clone()
+    ramp[..., path[1]] = torch.arange(40.0)                               # z moves 1 per frame
+    assert torch.allclose(velocity_loss(ramp, target, w), 0.25 * velocity_loss(ramp, target))
+    assert torch.allclose(velocity_loss(ramp, target), torch.tensor(1 / 70))
+    for bad in (0.0, -1.0, float("nan"), 1000.0):
+        with pytest.raises(ValueError, match="pelvis_loss_weight must be"):
+            TrainConfig(pelvis_loss_weight=bad)
