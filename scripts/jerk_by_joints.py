@@ -20,14 +20,14 @@ import numpy as np
 
 def joint_groups():
     """``{"pelvis": [0], "legs": [...], "arms": [...], "trunk": [...]}``: indices into
-    :data:`~physlab.motion.skeleton.JOINT_NAMES`; every joint in exactly one group."""
+    :data:`~physlab.motion.skeleton.JOINT_NAMES`; the arms are the sampler's
+    (:data:`~physlab.motion.sampling.ARM_JOINTS`); every joint in exactly one group."""
+    from physlab.motion.sampling import ARM_JOINTS
     from physlab.motion.skeleton import JOINT_NAMES
 
-    def pick(*keys):
-        return [i for i, n in enumerate(JOINT_NAMES) if any(k in n for k in keys)]
-
-    legs = pick("hip", "knee", "ankle", "foot")
-    arms = pick("collar", "shoulder", "elbow", "wrist")
+    legs = [i for i, n in enumerate(JOINT_NAMES)
+            if any(k in n for k in ("hip", "knee", "ankle", "foot"))]
+    arms = [i for i, n in enumerate(JOINT_NAMES) if n in ARM_JOINTS]
     trunk = [i for i in range(1, len(JOINT_NAMES)) if i not in legs + arms]
     return {"pelvis": [0], "legs": legs, "arms": arms, "trunk": trunk}
 
@@ -62,8 +62,7 @@ def main(argv=None):
     rows = [("real clips", jerk_by_group(data["joints"]))]
     for path in args.checkpoints:
         gen = Generator.from_checkpoint(path)
-        clips = np.stack([gen(t, seed=i)
-                          for i, t in enumerate(data["text"])])
+        clips = np.stack([gen(t, seed=i) for i, t in enumerate(data["text"])])
         rows.append((path, jerk_by_group(clips)))
     keys = list(rows[0][1])
     print(f"Plain AUJ (m/frame³, reference 0) of {len(data['text'])} held-out windows and "

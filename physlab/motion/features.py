@@ -73,7 +73,7 @@ __all__ = [
     "LOCAL_VEL", "CONTACTS", "CONTACT_JOINTS", "CONTACT_HEIGHT", "CONTACT_SPEED",
     "FACE_JOINTS", "STD_FLOORS", "root_heading", "canonicalize", "foot_contacts",
     "joints_to_features", "features_to_joints", "FeatureStats",
-    "ABS_PELVIS", "ABS_BODY", "ABS_CONTACTS", "ABS_FEATURE_DIM", "ABS_FEATURE_GROUPS",
+    "ABS_PELVIS", "ABS_PATH", "ABS_BODY", "ABS_CONTACTS", "ABS_FEATURE_DIM", "ABS_FEATURE_GROUPS",
     "ABS_STD_FLOORS", "REPRESENTATIONS", "check_representation",
     "joints_to_absolute_features", "absolute_features_to_joints", "encode_motion",
     "decode_motion",
@@ -315,6 +315,8 @@ def features_to_joints(features, include_last=True, initial_heading=0.0,
 #: heading rotation) and the four foot contacts. Decoding is a sum, so a trajectory or
 #: keypose condition at frame ``i`` is a function of row ``i`` alone.
 ABS_PELVIS = slice(0, 3)
+#: The pelvis x and z columns (its path on the floor), without the height.
+ABS_PATH = (ABS_PELVIS.start, ABS_PELVIS.start + 2)
 ABS_BODY = slice(3, 3 + 3 * (N_JOINTS - 1))                   # 3:66
 ABS_CONTACTS = slice(ABS_BODY.stop, ABS_BODY.stop + 4)        # 66:70
 ABS_FEATURE_DIM = ABS_CONTACTS.stop                           # 70

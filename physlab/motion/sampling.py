@@ -53,7 +53,7 @@ from .dataset import TRAJECTORY_JOINT_NAMES, TRAJECTORY_JOINTS
 from .conditions import KEYPOSE_AT, N_FRAMES, build_condition, build_sketch
 from .diffusion import classifier_free_guidance
 from .body import LEG_CHAINS, clip_bone_lengths, constrain_body
-from .features import ABS_BODY, ABS_PELVIS, decode_motion, encode_motion
+from .features import ABS_BODY, ABS_PATH, ABS_PELVIS, decode_motion, encode_motion
 from .model import ControlledDenoiser, features_to_joints_torch, low_pass_matrix
 from .skeleton import JOINT_NAMES, PARENTS
 
@@ -333,7 +333,7 @@ class Generator:
         passes = []
         if path is not None:
             mask = torch.zeros(self.config.feature_dim)
-            mask[[ABS_PELVIS.start, ABS_PELVIS.start + 2]] = 1.0             # pelvis x, z
+            mask[list(ABS_PATH)] = 1.0                                        # pelvis x, z
             passes.append((mask, low_pass_matrix(self.config.n_frames, int(path))))
         if body is not None:
             mask = torch.zeros(self.config.feature_dim)

@@ -97,7 +97,7 @@ from .dataset import (
     turn_windows,
 )
 from .diffusion import PREDICTION_TYPES, NoiseScheduler, SchedulerConfig
-from .features import ABS_PELVIS, FeatureStats, encode_motion
+from .features import ABS_PATH, FeatureStats, encode_motion
 from .model import (
     ControlledDenoiser,
     DenoiserConfig,
@@ -435,7 +435,7 @@ def prepare_data(cfg: TrainConfig, stats: FeatureStats | None = None, cache=None
                 raise ValueError(f"pelvis_scale {cfg.pelvis_scale} needs the 'absolute' "
                                  f"representation (its pelvis path columns), got "
                                  f"{representation!r}; use --pelvis-scale 1")
-            stats.std[[ABS_PELVIS.start, ABS_PELVIS.start + 2]] /= cfg.pelvis_scale   # x, z
+            stats.std[list(ABS_PATH)] /= cfg.pelvis_scale                   # x, z
     plain = [action_text(c) for c in win.content]            # the texts without a style adverb
     texts = sorted(set(win.text) | set(plain))
     if cache is None:
@@ -482,14 +482,14 @@ def recon_loss(out, target, t, scheduler, snr_cap=0.0, weights=None):
 
 def column_weights(dim, pelvis_weight=1.0):
     """Per-column loss weights of the absolute features: 1, and ``pelvis_weight`` on the
-    pelvis x and z columns (:data:`~physlab.motion.features.ABS_PELVIS`); None when all are 1.
+    pelvis x and z columns (:data:`~physlab.motion.features.ABS_PATH`); None when all are 1.
     With ``pelvis_scale`` F those columns' errors are F times larger in units, so their
     squared error counts F² times as much as at F = 1; ``pelvis_weight = 1 / F²`` undoes that
     while keeping the finer noise on the path."""
     if pelvis_weight == 1:
         return None
     w = torch.ones(dim)
-    w[[ABS_PELVIS.start, ABS_PELVIS.start + 2]] = float(pelvis_weight)
+    w[list(ABS_PATH)] = float(pelvis_weight)
     return w
 
 
