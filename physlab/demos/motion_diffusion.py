@@ -67,6 +67,8 @@ __all__ = [
     "export_bvh",
     "feature_channels",
     "generator",
+    "guidance_by_level",
+    "guidance_by_level_figure",
     "guidance_demo",
     "guidance_sweep",
     "guidance_sweep_figure",
@@ -91,6 +93,12 @@ __all__ = [
     "LESSON_WINDOWS",
 ]
 
+#: Bandai-Namco contents whose normal-style take-001 windows ship in :data:`LESSON_WINDOWS`
+#: (the guidance sweep's walk and run, the guidance-by-level figure's run and wave).
+SHIPPED_CONTENTS = ("walk", "run", "wave-right-hand")
+#: Actions of :func:`guidance_by_level`: text -> Bandai-Namco content. The run's speed must
+#: come from the text; the wave must stay on the spot.
+LEVEL_ACTIONS = {"a person runs": "run", "a person waves the right hand": "wave-right-hand"}
 #: Frame rate of every clip here (Hz), HumanML3D's and Sketch2Anim's.
 FPS = 20.0
 #: Resolution of the lesson's figures (dots per inch); figures stay small.
@@ -235,8 +243,9 @@ def lesson_windows():
     Returns
     -------
     dict: ``walk`` (40, 22, 3) the window of :data:`WALK_CLIP` at frame 20 and ``walk_text``;
-    ``real_walk`` / ``real_run`` (n, 40, 22, 3) the stride-10 windows of the normal-style
-    take-001 walk and run (:func:`real_windows`); ``held_out`` (6, 40, 22, 3) with
+    ``real_walk`` / ``real_run`` / ``real_wave-right-hand`` (n, 40, 22, 3) the stride-10
+    windows of the normal-style take-001 walk, run and wave (:func:`real_windows`,
+    :data:`SHIPPED_CONTENTS`); ``held_out`` (6, 40, 22, 3) with
     ``held_out_text`` / ``held_out_clip_id`` (6,) str, the windows of
     :func:`physlab.motion.evaluate.held_out_windows` ``(6)``. Arrays are float64, metres,
     canonical window frame. Rebuild with :func:`write_lesson_windows`.
@@ -257,10 +266,10 @@ def write_lesson_windows(path=None, data_root=None):
 
     root = _bandai_dir(data_root, "write_lesson_windows")
     walk, text = walk_window(WALK_CLIP, start=LESSON_WALK_START, data_root=root)
-    real = real_windows({"walk": "walk", "run": "run"}, data_root=root)
+    real = real_windows({c: c for c in SHIPPED_CONTENTS}, data_root=root)
     held = held_out_windows(LESSON_HELD_OUT, data_root=root)
-    arrays = {"walk": walk, "walk_text": np.array(text), "real_walk": real["walk"],
-              "real_run": real["run"], "held_out": held["joints"],
+    arrays = {"walk": walk, "walk_text": np.array(text),
+              **{f"real_{c}": real[c] for c in SHIPPED_CONTENTS}, "held_out": held["joints"],
               "held_out_text": np.array(held["text"]),
               "held_out_clip_id": np.array(held["clip_id"])}
     return atomic_write(path or LESSON_WINDOWS,
@@ -307,8 +316,9 @@ def real_windows(actions, style="normal", take="001", data_root=None):
     ----------
     actions : dict text -> Bandai-Namco content label, e.g. ``{"a person walks": "walk"}``.
     style, take : str, which clips of each content (default: the normal-style training take).
-    data_root : None or the Bandai-Namco folder. With None, the normal-style take-001 walk
-        and run come from :func:`lesson_windows`; anything else reads the clips.
+    data_root : None or the Bandai-Namco folder. With None, the normal-style take-001 walk,
+        run and wave (:data:`SHIPPED_CONTENTS`) come from :func:`lesson_windows`; anything
+        else reads the clips.
 
     Returns
     -------
@@ -316,9 +326,8 @@ def real_windows(actions, style="normal", take="001", data_root=None):
     """
     from physlab.motion.dataset import read_labels
 
-    shipped = {"walk", "run"}
     if data_root is None and style == "normal" and take == "001" \
-            and set(actions.values()) <= shipped:
+            and set(actions.values()) <= set(SHIPPED_CONTENTS):
         w = lesson_windows()
         return {text: w[f"real_{content}"].copy() for text, content in actions.items()}
     root = _bandai_dir(data_root, f"real_windows({sorted(set(actions.values()))}, "
@@ -658,11 +667,81 @@ def guidance_demo(guidance_scale=7.5, action="a person walks", seed=0, steps=50,
     return fig
 
 
+def guidance_by_level(actions=tuple(LEVEL_ACTIONS), settings=None, seeds=range(8), steps=None,
+                      checkpoint=None):
+    """Mean pelvis speed of text-only clips under several text guidance settings: one scale
+    w for every DDIM step, or a pair ``(w_high, w_low)``, w_high at the noise levels
+    ``t >= GUIDANCE_SPLIT * T`` and w_low below
+    (:func:`~physlab.motion.conditions.check_guidance`).
+
+    ``settings`` None: the generator's own text guidance (:attr:`~physlab.motion.sampling.
+    Generator.text_guidance`) and, for a pair ``(h, l)``, each half's scale alone: ``(l, h,
+    (h, l))``; for one scale w: ``(w, 2 w, (2 w, w))``. Same seeds for every setting.
+
+    Returns
+    -------
+    dict: ``settings`` (list of floats / pairs), ``labels`` (list of str), ``speed``
+    {action: (S,) array, m/s, mean over ``seeds``}, ``per_seed`` {action: (S, n_seeds)}.
+    """
+    from physlab.motion.conditions import check_guidance, format_guidance
+
+    gen = generator(checkpoint)
+    if settings is None:
+        w = gen.text_guidance
+        h, lo = w if isinstance(w, tuple) else (2 * w, w)
+        settings = (lo, h, (h, lo))
+    settings = [check_guidance(w, "settings") for w in settings]
+    seeds = [int(s) for s in seeds]
+    if not settings or not seeds:
+        raise ValueError("settings and seeds must not be empty")
+    steps = None if steps is None else int(steps)
+    per = {}
+    with one_thread(), _quiet_encoder_loading(_unknown(gen, actions)):
+        for a in actions:
+            per[a] = np.array([[root_speed(gen(a, seed=s, guidance_scale=w, steps=steps)).mean()
+                                for s in seeds] for w in settings])
+    labels = [format_guidance(w) for w in settings]
+    return {"settings": settings, "labels": labels, "per_seed": per,
+            "speed": {a: v.mean(1) for a, v in per.items()}}
+
+
+def guidance_by_level_figure(result, real=None):
+    """Bars of :func:`guidance_by_level`: one panel per action, one bar per setting (mean
+    pelvis speed, the seeds as dots); dashed: the mean speed of ``real`` clips (dict action ->
+    (B, 40, 22, 3)), if given."""
+    actions = list(result["speed"])
+    fig, axes = _figure(len(actions), 3.3, 2.7)
+    axes = np.atleast_1d(axes)
+    colors = ("tab:blue", "tab:orange", "tab:green", "tab:purple", "tab:gray")
+    n = len(result["labels"])
+    ticks = [f"{w[0]:g} then {w[1]:g}" if isinstance(w, tuple) else f"{w:g}"
+             for w in result["settings"]]
+    for ax, a in zip(axes, actions):
+        for i in range(n):
+            ax.bar(i, result["speed"][a][i], color=colors[i % len(colors)], alpha=0.8)
+            ax.plot(np.full(result["per_seed"][a].shape[1], i), result["per_seed"][a][i], ".",
+                    color="k", ms=3, alpha=0.6)
+        if real is not None and a in real:
+            v = motion_stats(real[a])["speed"]
+            ax.axhline(v, color="k", ls="--", lw=1.0, label=f"real clips {v:.2f} m/s")
+            ax.legend(fontsize=7, loc="upper left")
+        ax.set_xticks(range(n))
+        ax.set_xticklabels(ticks, fontsize=7)
+        ax.set_xlabel("text guidance w (a pair: t ≥ T/2, then below)", fontsize=7)
+        ax.set_title(f"“{a}”", fontsize=8)
+        ax.set_ylabel("mean pelvis speed (m/s)", fontsize=7)
+        ax.tick_params(labelsize=7)
+        ax.grid(alpha=0.3, axis="y")
+    return fig
+
+
 # ---------------------------------------------------------------------------- Sec. 6: words
 def action_speeds(actions, seeds=(0, 1), steps=None, guidance_scale=7.5, checkpoint=None):
     """Mean horizontal pelvis speed (m/s) of generated clips of each text, averaged over
-    ``seeds``, with ``steps`` DDIM steps (None: ``generate``'s default): dict action -> float."""
-    w = _check_scale(guidance_scale)
+    ``seeds``, with ``steps`` DDIM steps (None: ``generate``'s default) and text guidance
+    ``guidance_scale`` (None: the generator's default for text only,
+    :attr:`~physlab.motion.sampling.Generator.text_guidance`): dict action -> float."""
+    w = None if guidance_scale is None else _check_scale(guidance_scale)
     steps = None if steps is None else int(steps)
     gen = generator(checkpoint)
     with one_thread(), _quiet_encoder_loading(_unknown(gen, actions)):

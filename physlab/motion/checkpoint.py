@@ -173,7 +173,8 @@ def load_model(path_or_ckpt):
     ``text_cache`` (:class:`EmbeddingCache`), ``config`` (:class:`DenoiserConfig`),
     ``stage``, ``step``, ``text_model`` (:class:`MotionDenoiser` for text-only requests, eval,
     float32, or None: :func:`attach_text_model`), ``text_stats`` (its own
-    :class:`FeatureStats` where they differ from ``stats``, else None).
+    :class:`FeatureStats` where they differ from ``stats``, else None), ``text_guidance``
+    (its default text guidance scale, or None: :func:`attach_text_model`).
     """
     from .text import EmbeddingCache
 
@@ -184,18 +185,21 @@ def load_model(path_or_ckpt):
     scheduler = NoiseScheduler.from_dict(ckpt["scheduler"])
     (model if isinstance(model, MotionDenoiser) else model.base).set_schedule(
         scheduler.alphas_cumprod)                                          # config.skip only
-    text_model = text_stats = None
+    text_model = text_stats = text_guidance = None
     if ckpt.get("text_model") is not None:
         text_model = MotionDenoiser(DenoiserConfig.from_dict(ckpt["text_model"]["model_config"]))
         text_model.load_state_dict({k: v.float() for k, v in ckpt["text_model"]["model"].items()})
         text_model.eval().set_schedule(scheduler.alphas_cumprod)
         if ckpt["text_model"].get("feature_stats") is not None:
             text_stats = FeatureStats(**ckpt["text_model"]["feature_stats"])
+        text_guidance = check_text_guidance(ckpt["text_model"].get("guidance"),
+                                            "text_model.guidance")
     return {"model": model, "scheduler": scheduler,
             "stats": FeatureStats(**ckpt["feature_stats"]),
             "text_cache": EmbeddingCache.from_state_dict(ckpt["text_cache"]),
             "config": model.config, "stage": ckpt["stage"], "step": ckpt["step"],
-            "text_model": text_model, "text_stats": text_stats}
+            "text_model": text_model, "text_stats": text_stats,
+            "text_guidance": text_guidance}
 
 
 def export_weights(src, dst, dtype=torch.float16):
@@ -220,7 +224,15 @@ SHARED_CONFIG = ("feature_dim", "n_frames", "text_dim", "max_timesteps", "repres
                  "smooth_basis")
 
 
-def attach_text_model(control, text_base, out=None, dtype=torch.float16):
+def check_text_guidance(guidance, name="guidance"):
+    """``guidance`` checked: None, a float or a pair ``(w_high, w_low)``
+    (:func:`~physlab.motion.sampling.check_guidance`); ValueError naming ``name``."""
+    from .conditions import check_guidance
+
+    return None if guidance is None else check_guidance(guidance, name)
+
+
+def attach_text_model(control, text_base, out=None, dtype=torch.float16, guidance=None):
     """Write ``control`` (a control-stage checkpoint) with the network of ``text_base`` (a
     base-stage checkpoint) attached as its ``text_model``: :class:`~physlab.motion.sampling.
     Generator` then samples text-only requests with it and everything with a keypose,
@@ -236,9 +248,15 @@ def attach_text_model(control, text_base, out=None, dtype=torch.float16):
     training takes and :data:`SHARED_CONFIG` fields are compared, and a mismatch is a
     ValueError naming the field. Feature scales (std) may differ (a text base trained with a
     finer pelvis path scale, ``train --pelvis-scale``): the text model then carries its own
-    statistics, and the generator decodes its clips with them. ``out`` (default: ``control`` itself) is written atomically;
-    the text model's weights are cast to ``dtype`` (fp16, as :func:`export_weights`). Returns
-    the Path written."""
+    statistics, and the generator decodes its clips with them. ``guidance`` (None, a number
+    or a pair ``(w_high, w_low)``: :func:`~physlab.motion.sampling.check_guidance`) is the
+    text model's own default text guidance scale w, stored with it: :attr:`Generator.text_guidance
+    <physlab.motion.sampling.Generator.text_guidance>` (None: the generator's
+    :data:`~physlab.motion.sampling.TEXT_GUIDANCE`); a model trained longer follows its text
+    less at the same w and needs a larger one. ``out`` (default: ``control`` itself) is
+    written atomically; the text model's weights are cast to ``dtype`` (fp16, as
+    :func:`export_weights`). Returns the Path written."""
+    guidance = check_text_guidance(guidance)
     ctrl, text = load_checkpoint(control), load_checkpoint(text_base)
     if ctrl.get("stage") not in ("control", "align"):
         raise ValueError(f"{control} is a {ctrl.get('stage')!r} checkpoint; give a control "
@@ -270,6 +288,9 @@ def attach_text_model(control, text_base, out=None, dtype=torch.float16):
     ctrl["text_model"] = {
         "model_config": b, "step": text.get("step"), "train_config": text.get("train_config"),
         "model": _cast(text["model"], dtype)}
+    if guidance is not None:
+        ctrl["text_model"]["guidance"] = list(guidance) if isinstance(guidance, tuple) \
+            else guidance
     if not same_std:            # e.g. a finer pelvis path scale (train --pelvis-scale)
         ctrl["text_model"]["feature_stats"] = {k: np.asarray(v, dtype=float).copy()
                                                for k, v in text["feature_stats"].items()}
@@ -282,15 +303,22 @@ PROG = "python -m physlab.motion.checkpoint"
 def _attach_command(argv):
     from physlab._cli import Parser
 
+    from .conditions import format_guidance, guidance_argument
+
     p = Parser(prog=PROG, description="Tools for motion checkpoints.")
     sub = p.add_subparsers(dest="command", required=True)
     at = sub.add_parser("attach-text", help=attach_text_model.__doc__.split("\n\n")[0])
     at.add_argument("control", help="control-stage checkpoint (rewritten unless --out)")
     at.add_argument("text_base", help="base-stage checkpoint whose network takes text only")
     at.add_argument("--out", default=None, help="write here instead of CONTROL")
+    at.add_argument("--guidance", type=guidance_argument, default=None,
+                    help="the text model's own default text guidance scale: W, or HIGH,LOW "
+                         "(HIGH at the upper half of the noise levels, LOW below; default: "
+                         "the generator's, physlab.motion.sampling.TEXT_GUIDANCE)")
     args = p.parse_args(argv)
-    path = attach_text_model(args.control, args.text_base, args.out)
-    print(f"text model of {args.text_base} attached -> {path}")
+    path = attach_text_model(args.control, args.text_base, args.out, guidance=args.guidance)
+    w = "" if args.guidance is None else f" (text guidance w = {format_guidance(args.guidance)})"
+    print(f"text model of {args.text_base} attached{w} -> {path}")
 
 
 def main(argv=None):

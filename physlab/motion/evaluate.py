@@ -67,7 +67,7 @@ sphere embedding, so not comparable with HumanML3D numbers.
 Usage::
 
     python -m physlab.motion.evaluate --control runs/control.pt \\
-        [--single-controlnet runs/single.pt] [--double-controlnet runs/double.pt] [--windows 64] [--steps 25] [--guidance 2.5] [--control-guidance 1] \\
+        [--single-controlnet runs/single.pt] [--double-controlnet runs/double.pt] [--windows 64] [--steps 25] [--guidance W] [--control-guidance 1] \\
         [--seed 0] [--out runs/eval] [--no-progress] [--pose-detail]
 
     from physlab.motion.evaluate import evaluate
@@ -89,6 +89,7 @@ import numpy as np
 from physlab._io import atomic_write_text
 
 from .blend import TRANSITION, blend, junction_step_ratio
+from .conditions import check_guidance, format_guidance, guidance_argument
 from .dataset import (
     ACTION_PHRASES,
     BANDAI_NAMCO_ATTRIBUTION,
@@ -542,7 +543,7 @@ def _check_scale(name, value, hint=""):
         raise ValueError(f"{name} must be a finite number >= 0{hint}, got {value!r}")
 
 
-def evaluate(control, single_controlnet=None, windows=64, steps=None, guidance=2.5, seed=0,
+def evaluate(control, single_controlnet=None, windows=64, steps=None, guidance=None, seed=0,
              out=None, progress=True, data_root=None, body_constraints=True,
              control_guidance=1.0, guidance_variants=False, evaluator="default",
              foot_lock=True, frequencies=None, double_controlnet=None, pose_detail=False,
@@ -560,10 +561,13 @@ def evaluate(control, single_controlnet=None, windows=64, steps=None, guidance=2
         ``--double-controlnet`` control checkpoints (Table 2's ablations).
     windows : int >= 1, held-out windows evaluated.
     steps : None (``generate``'s default, :data:`~physlab.motion.sampling.DEFAULT_STEPS`) or
-        int >= 1, DDIM steps; guidance : float >= 0, text CFG scale w (Eq. (14)) of the
-    text-only row; control_guidance : float >= 0, the text scale of the controlled rows
-    (the generator's default under control, :data:`~physlab.motion.sampling.
-    CONTROL_TEXT_GUIDANCE`).
+        int >= 1, DDIM steps.
+    guidance : None (the generator's default for text only,
+        :attr:`~physlab.motion.sampling.Generator.text_guidance`), a number >= 0 or a pair
+        ``(w_high, w_low)`` (:func:`~physlab.motion.conditions.check_guidance`): the text CFG
+        scale w (Eq. (14)) of the text-only row.
+    control_guidance : float >= 0, the text scale of the controlled rows (the generator's
+        default under control, :data:`~physlab.motion.sampling.CONTROL_TEXT_GUIDANCE`).
     condition_scale : float >= 0, w_c of Eq. (14) on the keypose and trajectories in every
         controlled row (:meth:`~physlab.motion.sampling.Generator.__call__`; 1 = the
         networks as they are, the generator's default).
@@ -602,8 +606,9 @@ def evaluate(control, single_controlnet=None, windows=64, steps=None, guidance=2
     """
     n = _check_windows(windows)
     steps = _steps(steps)
-    _check_scale("guidance", guidance, " (Sketch2Anim uses 7.5)")
+    guidance = None if guidance is None else check_guidance(guidance, "guidance")
     main_gen = _load(control, "--control", need_control=False, text_model=text_model)
+    guidance = main_gen.text_guidance if guidance is None else guidance
     gens = {"keypose + trajectory": main_gen} if main_gen.has_control else {}
     if not gens and (single_controlnet is not None or double_controlnet is not None
                      or guidance_variants or condition_scale != 1.0):
@@ -637,7 +642,7 @@ def evaluate(control, single_controlnet=None, windows=64, steps=None, guidance=2
     rows = {"real clips": metrics(data["joints"])}
     x, s = _sample(main_gen, data, conds, False, label="text only",
                    body_frequencies=body_frequencies,
-                   guidance=float(guidance), **kw)
+                   guidance=guidance, **kw)
     rows["text only"] = metrics(x, s)
     if not isinstance(pose_detail, (bool, np.bool_)):
         raise TypeError(f"pose_detail must be True or False, got {pose_detail!r}")
@@ -665,7 +670,8 @@ def evaluate(control, single_controlnet=None, windows=64, steps=None, guidance=2
                   if double_controlnet is None else str(double_controlnet),
                   "windows": len(conds),
                   "windows_available": data["n_available"], "steps": int(steps),
-                  "guidance": float(guidance), "control_guidance": float(control_guidance),
+                  "guidance": list(guidance) if isinstance(guidance, tuple) else guidance,
+                  "control_guidance": float(control_guidance),
                   "condition_scale": float(condition_scale),
                   "seed": int(seed), "min_t_r": MIN_T_R,
                   "test_takes": list(takes), "body_constraints": bool(body_constraints),
@@ -744,7 +750,7 @@ def motion_statistics(joints, fps=20.0):
     return np.stack([d[:, 2], d[:, 0], path / duration, hand, wrist], axis=1)
 
 
-def text_adherence(control, contents=ADHERENCE_CONTENTS, seeds=4, steps=None, guidance=2.5,
+def text_adherence(control, contents=ADHERENCE_CONTENTS, seeds=4, steps=None, guidance=None,
                    progress=True, data_root=None, frequencies=None, text_model=True,
                    body_frequencies=None):
     """Does the text-only generator do what the action word says? (Next to the evaluator's
@@ -753,9 +759,10 @@ def text_adherence(control, contents=ADHERENCE_CONTENTS, seeds=4, steps=None, gu
     For each content, ``seeds`` text-only clips of ``action_text(content)`` are compared with
     the windows of all Bandai-Namco clips of that content (both takes: the reference says what
     the action looks like; the held-out take lacks some actions) through
-    :func:`motion_statistics`; ``frequencies`` and ``body_frequencies`` as
-    :meth:`Generator.__call__` (None: its text-only defaults); ``text_model`` as
-    :func:`evaluate`.
+    :func:`motion_statistics`; ``guidance`` (None: the generator's
+    :attr:`~physlab.motion.sampling.Generator.text_guidance`), ``frequencies`` and
+    ``body_frequencies`` as :meth:`Generator.__call__` (None: its text-only defaults);
+    ``text_model`` as :func:`evaluate`.
     Recognition: each generated clip is assigned the content whose mean real statistics are
     nearest (statistics scaled by their spread over the real windows); ``accuracy`` is the
     fraction assigned to the content asked for (chance ``1 / len(contents)``).
@@ -779,8 +786,10 @@ def text_adherence(control, contents=ADHERENCE_CONTENTS, seeds=4, steps=None, gu
                          f"unknown: {unknown}")
     if isinstance(seeds, bool) or not isinstance(seeds, (int, np.integer)) or seeds < 1:
         raise ValueError(f"seeds must be an integer >= 1, got {seeds!r}")
+    guidance = None if guidance is None else check_guidance(guidance, "guidance")
     gen = _load(control, "--control", need_control=False,         # text only: a base will do
                 text_model=text_model)
+    guidance = gen.text_guidance if guidance is None else guidance
     win = make_windows(load_clips(data_root), length=WINDOW_LENGTH, stride=WINDOW_STRIDE)
     real_stats = motion_statistics(win.joints, fps=win.fps)               # (M, 4)
     labels = np.asarray(win.content)
@@ -813,7 +822,8 @@ def text_adherence(control, contents=ADHERENCE_CONTENTS, seeds=4, steps=None, gu
         return {"auj": auj, "pj": pj, "skating": float(np.mean(foot_skating_ratio(J)))}
 
     return {"per_content": per, "accuracy": hits / total, "chance": 1.0 / len(contents),
-            "seeds": int(seeds), "steps": int(steps), "guidance": float(guidance),
+            "seeds": int(seeds), "steps": int(steps),
+            "guidance": list(guidance) if isinstance(guidance, tuple) else guidance,
             "quality": {"real": quality(real), "generated": quality(made)}}
 
 
@@ -935,7 +945,8 @@ def format_adherence(res):
         lines.append("| " + " | ".join([r["text"], str(r["n_real"]), *cells,
                                         f"{ok}/{len(r['recognised_as'])}"]) + " |")
     lines += ["", f"Text only, {res['seeds']} seeds per text, {res['steps']} DDIM steps, "
-              f"w = {res['guidance']:g}. Recognition accuracy (nearest real action mean): "
+              f"w = {format_guidance(res['guidance'])}. Recognition accuracy (nearest real "
+              f"action mean): "
               f"{res['accuracy']:.2f} (chance {res['chance']:.2f})."]
     if "quality" in res:
         r, g = res["quality"]["real"], res["quality"]["generated"]
@@ -1037,7 +1048,7 @@ def evaluate_sketch(control, windows=64, steps=None, seed=0, noise=0.0, progress
 
     Returns ``{row: metrics}`` (:data:`SKETCH_COLUMNS`, plus the evaluator's columns when
     ``evaluator`` is given: ``"default"`` or a path)."""
-    from .sampling import CONTROL_TEXT_GUIDANCE, TEXT_GUIDANCE
+    from .sampling import CONTROL_TEXT_GUIDANCE
 
     n = _check_windows(windows)
     gen = _load(control, "--control")
@@ -1051,7 +1062,7 @@ def evaluate_sketch(control, windows=64, steps=None, seed=0, noise=0.0, progress
         return {**sketch_metrics(x, conds, cams, s), **text_motion(x)}
 
     rows = {"real clips": metrics(data["joints"])}
-    x, s = _sample(gen, data, conds, False, label="text only", guidance=TEXT_GUIDANCE, **kw)
+    x, s = _sample(gen, data, conds, False, label="text only", guidance=None, **kw)
     rows["text only"] = metrics(x, s)
     if retrieval:
         from .baselines import MotionRetrieval
@@ -1344,8 +1355,10 @@ def _parser():
     p.add_argument("--windows", type=int, default=64, help="held-out windows (default 64)")
     p.add_argument("--steps", type=int, default=None,
                    help="DDIM steps (default: generate's, physlab.motion.sampling.DEFAULT_STEPS)")
-    p.add_argument("--guidance", type=float, default=2.5,
-                   help="text CFG scale of the text-only row (default 2.5, the generator's)")
+    p.add_argument("--guidance", type=guidance_argument, default=None,
+                   help="text CFG scale of the text-only row and --adherence: W, or HIGH,LOW "
+                        "(HIGH at the upper half of the noise levels, LOW below; default: the "
+                        "generator's, its text model's own or 2.5)")
     p.add_argument("--control-guidance", type=float, default=1.0,
                    help="text CFG scale of the controlled rows (default 1)")
     p.add_argument("--condition-scale", type=float, default=1.0,

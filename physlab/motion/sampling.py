@@ -50,7 +50,9 @@ import numpy as np
 import torch
 
 from .dataset import TRAJECTORY_JOINT_NAMES, TRAJECTORY_JOINTS
-from .conditions import KEYPOSE_AT, N_FRAMES, build_condition, build_sketch
+from .conditions import (  # noqa: F401 (MAX_GUIDANCE, GUIDANCE_SPLIT, format_guidance:
+    GUIDANCE_SPLIT, KEYPOSE_AT, MAX_GUIDANCE, N_FRAMES,  # re-exported, as the builders)
+    build_condition, build_sketch, check_guidance, format_guidance, guidance_at)
 from .diffusion import classifier_free_guidance
 from .body import LEG_CHAINS, clip_bone_lengths, constrain_body
 from .features import ABS_BODY, ABS_PATH, ABS_PELVIS, decode_motion, encode_motion
@@ -64,8 +66,6 @@ __all__ = ["DEFAULT_CHECKPOINT", "N_FRAMES", "Generator", "build_condition", "bu
 DEFAULT_CHECKPOINT = Path(__file__).resolve().parents[2] / "data" / "motion" / \
     "sketch2anim_control.pt"
 
-#: Largest classifier-free guidance scale accepted (the paper uses 7.5).
-MAX_GUIDANCE = 100.0
 METHODS = ("ddim", "ddpm")
 #: The toe joints (left, right) whose trajectory frames :func:`~physlab.motion.body.lock_feet`
 #: must not move.
@@ -235,14 +235,17 @@ class Generator:
         was trained with, where they differ from ``stats`` (a text base with a finer pelvis
         path scale, ``train --pelvis-scale``); None: ``stats``. :attr:`stats` gives them
         while the text model samples.
+    text_model_guidance : None, a float or a pair ``(w_high, w_low)``, the text model's own
+        default text guidance scale (``attach-text --guidance``); :attr:`text_guidance`.
     """
 
     def __init__(self, model, scheduler, stats, text_cache, stage, path=None, text_model=None,
-                 text_stats=None):
+                 text_stats=None, text_model_guidance=None):
         self.model, self.scheduler, self._stats = model, scheduler, stats
         self.text_cache, self.stage, self.path = text_cache, stage, path
         self.config = model.config
         self.text_model, self.text_stats = text_model, text_stats
+        self.text_model_guidance = text_model_guidance
         self.train_takes = ()   # Bandai-Namco takes trained on, when the checkpoint says
         self.fused = True
         self._fused, self._modules = None, []
@@ -273,12 +276,15 @@ class Generator:
             raise ValueError(f"{path}: the weights do not fit the saved model config "
                              f"({type(e).__name__}: {e}); retrain with "
                              f"{_train_commands(path)}") from None
+        except ValueError as e:                 # e.g. a bad text_model.guidance
+            raise ValueError(f"{path}: {e}") from None
         cache = loaded["text_cache"]
         if (ckpt.get("train_config") or {}).get("text_encoder") == "hash":
             cache.encoder = hash_encoder        # smoke / test models: the fake encoder
         gen = cls(loaded["model"], loaded["scheduler"], loaded["stats"], cache,
                   loaded["stage"], path, text_model=loaded["text_model"],
-                  text_stats=loaded["text_stats"])
+                  text_stats=loaded["text_stats"],
+                  text_model_guidance=loaded["text_guidance"])
         gen.train_takes = tuple(ckpt.get("train_takes") or ())    # () = not recorded
         return gen
 
@@ -286,6 +292,17 @@ class Generator:
         return (f"Generator(stage={self.stage!r}, path={str(self.path)!r}, "
                 f"d_model={self.config.d_model}, n_layers={self.config.n_layers}, "
                 f"text_model={self.text_model is not None})")
+
+    @property
+    def text_guidance(self):
+        """Default text guidance scale w of text-only requests (:meth:`__call__` with
+        ``guidance_scale=None``): the attached :attr:`text_model`'s own when it has one
+        (:func:`~physlab.motion.checkpoint.attach_text_model` ``guidance``), else
+        :data:`TEXT_GUIDANCE` (also when :attr:`text_model` is set to None: the frozen base
+        then samples)."""
+        if self.text_model is not None and self.text_model_guidance is not None:
+            return self.text_model_guidance
+        return TEXT_GUIDANCE
 
     @property
     def has_control(self):
@@ -615,8 +632,9 @@ class Generator:
         trajectories_3d : None or dict ``{joint_name: (t_r, 3) array}`` (m), joint names from
             :data:`~physlab.motion.dataset.TRAJECTORY_JOINT_NAMES`, ``t_r <= 40``.
         seed : int, seeds x_T and (DDPM) the step noise.
-        guidance_scale : None or float >= 0, w of Eq. (14) on the text (module docstring).
-            None: :data:`TEXT_GUIDANCE` for text only, :data:`CONTROL_TEXT_GUIDANCE` when a
+        guidance_scale : None, float >= 0 or a pair ``(w_high, w_low)``
+            (:data:`GUIDANCE_SPLIT`), w of Eq. (14) on the text (module docstring).
+            None: :attr:`text_guidance` for text only, :data:`CONTROL_TEXT_GUIDANCE` when a
             keypose or trajectories are given (Sketch2Anim's Eq. (14) keeps the action word in
             both passes, so under control the text is not extrapolated; measured here, a text
             scale of 7.5 under control pushed the walks past their trajectories: networks-only
@@ -694,12 +712,8 @@ class Generator:
             read_2d = bool(self.has_sketch_encoders and sketch_encoders
                            and (keypose_2d is not None or trajectories_2d))
             guidance_scale = (CONTROL_TEXT_GUIDANCE if keypose_3d is not None
-                              or trajectories_3d or read_2d else TEXT_GUIDANCE)
-        if (isinstance(guidance_scale, bool) or not isinstance(guidance_scale, (int, float))
-                or not math.isfinite(guidance_scale) or not 0 <= guidance_scale <= MAX_GUIDANCE):
-            raise ValueError(f"guidance_scale must be a number in [0, {MAX_GUIDANCE:g}] "
-                             f"(Sketch2Anim uses 7.5; 0 = no text guidance; far larger scales "
-                             f"overflow the features), got {guidance_scale!r}")
+                              or trajectories_3d or read_2d else self.text_guidance)
+        guidance_scale = check_guidance(guidance_scale)
         if steps is None:
             steps = DEFAULT_STEPS
         if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps < 1:
@@ -825,13 +839,14 @@ class Generator:
         g = torch.Generator().manual_seed(int(seed))
         shape = (1, self.config.n_frames, self.config.feature_dim)           # (1, T, D)
         x = torch.randn(shape, generator=g)                                  # x_T ~ N(0, I)
-        w, w_c = float(guidance_scale), float(condition_scale)
+        w_c = float(condition_scale)
         bar = _progress(self._pairs(timesteps), progress, f"{method} sampling")
         text_only = not (controlled or drawn)                      # the text model's requests
         with torch.no_grad(), self._using_text_model(text_only), \
                 self._frequencies(frequencies, path_frequencies, body_frequencies):
             for t, t_prev in bar:
                 t_in = torch.tensor([t])
+                w = guidance_at(guidance_scale, t, sched.num_train_timesteps)
                 final = t_prev == -1
                 iters = guidance_final if final else inference_guidance
                 if guided and iters > 0 and not final and guidance_space == "network":

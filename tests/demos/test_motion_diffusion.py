@@ -185,11 +185,36 @@ def test_guidance_sweep_ignores_the_text_at_w0(ckpt, tmp_path):
               tmp_path, 3)
 
 
+def test_guidance_by_level_samples_each_setting_with_the_same_seeds(ckpt, tmp_path):
+    """guidance_by_level: a single scale and a pair (w_high, w_low); the pair (w, w) gives
+    the single scale's speeds; default settings come from the generator's own guidance."""
+    res = demo.guidance_by_level(("a person walks",), settings=(2.0, (2.0, 2.0), (6.0, 1.0)),
+                                 seeds=(0, 1), steps=4, checkpoint=ckpt)
+    v = res["per_seed"]["a person walks"]
+    assert v.shape == (3, 2) and res["settings"] == [2.0, (2.0, 2.0), (6.0, 1.0)]
+    np.testing.assert_array_equal(v[0], v[1])
+    assert not np.allclose(v[0], v[2])
+    x = demo.generator(ckpt)("a person walks", seed=1, steps=4, guidance_scale=(6.0, 1.0))
+    assert np.isclose(v[2, 1], demo.root_speed(x).mean())
+    np.testing.assert_allclose(res["speed"]["a person walks"], v.mean(1))
+    w = demo.generator(ckpt).text_guidance                            # 2.5, no pair
+    default = demo.guidance_by_level(("a person walks",), seeds=(0,), steps=4, checkpoint=ckpt)
+    assert default["settings"] == [w, 2 * w, (2 * w, w)]
+    real = {"a person walks": _tpose_clip()[None]}
+    _drawable(demo.guidance_by_level_figure(res, real=real), tmp_path, 1)
+    with pytest.raises(ValueError, match="settings"):
+        demo.guidance_by_level(settings=((1.0, -1.0),), seeds=(0,), steps=4, checkpoint=ckpt)
+
+
 def test_action_speeds_match_root_speed(ckpt):
     sp = demo.action_speeds(("a person walks",), seeds=(0,), steps=4, guidance_scale=7.5,
                             checkpoint=ckpt)
     x = demo.generator(ckpt)("a person walks", seed=0, steps=4, guidance_scale=7.5)
     assert np.isclose(sp["a person walks"], demo.root_speed(x).mean())
+    default = demo.action_speeds(("a person walks",), seeds=(0,), steps=4,
+                                 guidance_scale=None, checkpoint=ckpt)   # the generator's w
+    x = demo.generator(ckpt)("a person walks", seed=0, steps=4)
+    assert np.isclose(default["a person walks"], demo.root_speed(x).mean())
 
 
 @pytest.mark.parametrize("call, match", [

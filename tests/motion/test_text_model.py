@@ -162,3 +162,100 @@ def test_evaluate_samples_text_only_with_the_text_model_unless_told_not_to(ckpts
     assert text["text only"]["trajectory_error_3d"] != base["text only"]["trajectory_error_3d"]
     row = "keypose + trajectory"
     assert text[row]["trajectory_error_3d"] == base[row]["trajectory_error_3d"]
+
+
+def test_a_text_model_carries_its_own_text_guidance(ckpts, tmp_path, capsys):
+    """attach-text --guidance W stores W with the text model: text-only requests default to
+    it (the same clip as asking for W), controlled ones keep CONTROL_TEXT_GUIDANCE, and
+    without a text model (or without W) the default is TEXT_GUIDANCE; evaluate and the
+    adherence check use it unless given --guidance, and bad values are refused by name."""
+    import json
+
+    from physlab.motion import evaluate as E
+    from physlab.motion.sampling import CONTROL_TEXT_GUIDANCE, TEXT_GUIDANCE
+
+    out = tmp_path / "w.pt"
+    main(["attach-text", str(ckpts["control"]), str(ckpts["text"]), "--out", str(out),
+          "--guidance", "4.5"])
+    assert "w = 4.5" in capsys.readouterr().out
+    assert load_checkpoint(out)["text_model"]["guidance"] == 4.5
+    g = Generator.from_checkpoint(out)
+    assert g.text_guidance == 4.5 != TEXT_GUIDANCE
+    assert Generator.from_checkpoint(ckpts["attached"]).text_guidance == TEXT_GUIDANCE
+    action = g.text_cache.texts[0]
+    got = g(action, seed=2, steps=STEPS)
+    np.testing.assert_array_equal(got, g(action, seed=2, steps=STEPS, guidance_scale=4.5))
+    assert np.abs(got - g(action, seed=2, steps=STEPS,
+                          guidance_scale=TEXT_GUIDANCE)).max() > 1e-4
+    pose = got[0]
+    np.testing.assert_array_equal(
+        g(action, seed=2, steps=STEPS, keypose_3d=pose),
+        g(action, seed=2, steps=STEPS, keypose_3d=pose, guidance_scale=CONTROL_TEXT_GUIDANCE))
+    g.text_model = None                              # the base samples: its default
+    assert g.text_guidance == TEXT_GUIDANCE
+    assert _load(out, "--control", text_model=False).text_guidance == TEXT_GUIDANCE
+
+    res = E.text_adherence(out, contents=("walk", "run"), seeds=1, steps=2, progress=False)
+    assert res["guidance"] == 4.5
+    assert E.text_adherence(out, contents=("walk",), seeds=1, steps=2, progress=False,
+                            guidance=1.0)["guidance"] == 1.0
+    E.main(["--control", str(out), "--windows", "1", "--steps", "2", "--no-progress",
+            "--no-evaluator", "--no-body-constraints", "--out", str(tmp_path / "ev")])
+    assert json.loads((tmp_path / "ev" / "rows.json").read_text())["config"]["guidance"] == 4.5
+
+    for bad in (-1.0, float("nan"), 1e6, True, "5", (1.0, 2.0, 3.0), (1.0, -2.0)):
+        with pytest.raises(ValueError, match=r"guidance must be a number .* or a pair"):
+            attach_text_model(ckpts["control"], ckpts["text"], tmp_path / "bad.pt",
+                              guidance=bad)
+    assert not (tmp_path / "bad.pt").exists()
+    ck = load_checkpoint(out)
+    ck["text_model"]["guidance"] = -3.0
+    with pytest.raises(ValueError, match=r"corrupt_w\.pt: text_model\.guidance must be"):
+        Generator.from_checkpoint(save_checkpoint(tmp_path / "corrupt_w.pt", ck))
+
+
+def test_a_guidance_pair_guides_each_half_of_the_noise_levels(ckpts, monkeypatch):
+    """guidance_scale=(w_high, w_low): w_high at t >= GUIDANCE_SPLIT * T, w_low below (spied
+    on the network calls); (w, w) is the same clip as w; a pair can be the text model's own
+    default (attach-text --guidance HIGH,LOW)."""
+    from physlab.motion.sampling import GUIDANCE_SPLIT
+
+    g = Generator.from_checkpoint(ckpts["attached"])
+    action = g.text_cache.texts[0]
+    np.testing.assert_array_equal(g(action, seed=1, steps=STEPS, guidance_scale=(3.0, 3.0)),
+                                  g(action, seed=1, steps=STEPS, guidance_scale=3.0))
+    pair = g(action, seed=1, steps=STEPS, guidance_scale=(6.0, 2.0))
+    for w in (6.0, 2.0):
+        assert np.abs(pair - g(action, seed=1, steps=STEPS, guidance_scale=w)).max() > 1e-4
+    seen, predict = [], Generator._predict
+
+    def spy(self, x, t, a, cond, w, w_c=1.0):
+        seen.append((int(t[0]), w))
+        return predict(self, x, t, a, cond, w, w_c)
+
+    monkeypatch.setattr(Generator, "_predict", spy)
+    g(action, seed=1, steps=STEPS, guidance_scale=(6.0, 2.0))
+    T = g.scheduler.num_train_timesteps
+    assert len(seen) == STEPS and {w for _, w in seen} == {6.0, 2.0}
+    assert all(w == (6.0 if t >= GUIDANCE_SPLIT * T else 2.0) for t, w in seen)
+    monkeypatch.undo()
+
+    out = ckpts["dir"] / "pair.pt"
+    main(["attach-text", str(ckpts["control"]), str(ckpts["text"]), "--out", str(out),
+          "--guidance", "6,2"])
+    h = Generator.from_checkpoint(out)
+    assert h.text_guidance == (6.0, 2.0)
+    np.testing.assert_array_equal(h(action, seed=1, steps=STEPS),
+                                  h(action, seed=1, steps=STEPS, guidance_scale=(6.0, 2.0)))
+    with pytest.raises(ValueError, match=r"guidance_scale must be .* or a pair"):
+        g(action, steps=STEPS, guidance_scale=(6.0, -1.0))
+
+
+@pytest.mark.parametrize("bad", ["x", "1,2,3", "nan", "-1", "3,", "200"])
+def test_a_bad_guidance_argument_is_one_line_naming_the_option(ckpts, tmp_path, capsys, bad):
+    with pytest.raises(SystemExit) as e:
+        main(["attach-text", str(ckpts["control"]), str(ckpts["text"]), "--out",
+              str(tmp_path / "x.pt"), "--guidance", bad])
+    err = capsys.readouterr().err
+    assert e.value.code == 2 and "--guidance" in err and "HIGH,LOW" in err
+    assert not (tmp_path / "x.pt").exists()
