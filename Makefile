@@ -137,11 +137,11 @@ motion-model: $(STAMP) motion-evaluator
 	$(MOTION_TRAIN) --stage align --steps 15000 --single-joint 0.25 --lambda-tr-2d 8 \
 		--base-ckpt $(MOTION_RUNS)/control.pt \
 		--out $(MOTION_RUNS)/align.pt --export $(MOTION_EXPORT)/sketch2anim_control.pt
-	$(MOTION_TRAIN) --stage base --steps 10000 --skip --no-skip-pelvis --snr-cap 10 \
-		--balance 0.5 --lambda-vel 4 --style-drop 0.3 --pelvis-scale 4 \
+	$(MOTION_TRAIN) --stage base --steps 20000 --skip --no-skip-pelvis --snr-cap 10 \
+		--balance 0.5 --lambda-vel 4 --style-drop 0.3 --pelvis-scale 5 --seed 1 \
 		--out $(MOTION_RUNS)/text_base.pt
 	$(PY) -m physlab.motion.checkpoint attach-text $(MOTION_EXPORT)/sketch2anim_control.pt \
-		$(MOTION_RUNS)/text_base.pt
+		$(MOTION_RUNS)/text_base.pt --guidance 6,4.5
 	$(PY) -m physlab.motion.baselines train-lifter --steps 3000 --num-threads 2 \
 		--out $(MOTION_RUNS)/lifter.pt --export $(MOTION_EXPORT)/sketch_lifter.pt
 

@@ -78,6 +78,7 @@ __all__ = [
     "noising_moments",
     "normalized_features",
     "one_thread",
+    "real_speeds",
     "real_windows",
     "root_speed",
     "sampler_comparison",
@@ -245,7 +246,8 @@ def lesson_windows():
     dict: ``walk`` (40, 22, 3) the window of :data:`WALK_CLIP` at frame 20 and ``walk_text``;
     ``real_walk`` / ``real_run`` / ``real_wave-right-hand`` (n, 40, 22, 3) the stride-10
     windows of the normal-style take-001 walk, run and wave (:func:`real_windows`,
-    :data:`SHIPPED_CONTENTS`); ``held_out`` (6, 40, 22, 3) with
+    :data:`SHIPPED_CONTENTS`); ``speed_walk`` / ``speed_run`` / ``speed_wave-right-hand`` ()
+    the mean pelvis speed of all windows of every clip of the content (:func:`real_speeds`); ``held_out`` (6, 40, 22, 3) with
     ``held_out_text`` / ``held_out_clip_id`` (6,) str, the windows of
     :func:`physlab.motion.evaluate.held_out_windows` ``(6)``. Arrays are float64, metres,
     canonical window frame. Rebuild with :func:`write_lesson_windows`.
@@ -268,8 +270,11 @@ def write_lesson_windows(path=None, data_root=None):
     walk, text = walk_window(WALK_CLIP, start=LESSON_WALK_START, data_root=root)
     real = real_windows({c: c for c in SHIPPED_CONTENTS}, data_root=root)
     held = held_out_windows(LESSON_HELD_OUT, data_root=root)
+    speeds = real_speeds({c: c for c in SHIPPED_CONTENTS}, data_root=root)
     arrays = {"walk": walk, "walk_text": np.array(text),
-              **{f"real_{c}": real[c] for c in SHIPPED_CONTENTS}, "held_out": held["joints"],
+              **{f"real_{c}": real[c] for c in SHIPPED_CONTENTS},
+              **{f"speed_{c}": np.array(speeds[c]) for c in SHIPPED_CONTENTS},
+              "held_out": held["joints"],
               "held_out_text": np.array(held["text"]),
               "held_out_clip_id": np.array(held["clip_id"])}
     return atomic_write(path or LESSON_WINDOWS,
@@ -341,6 +346,29 @@ def real_windows(actions, style="normal", take="001", data_root=None):
             raise ValueError(f"no Bandai-Namco clip has content {content!r}, style {style!r}, "
                              f"take {take!r}")
         out[text] = make_windows(load_clips(root, clip_ids=ids)).joints
+    return out
+
+
+def real_speeds(actions, data_root=None):
+    """Mean horizontal pelvis speed (m/s) over the stride-10 windows of *every* clip (all
+    styles, both takes) of each content: what the text-adherence check
+    (:func:`physlab.motion.evaluate.text_adherence`) calls the real speed of an action.
+
+    ``actions`` dict text -> Bandai-Namco content; with ``data_root`` None the contents of
+    :data:`SHIPPED_CONTENTS` come from :func:`lesson_windows`, anything else reads the clips.
+    Returns dict text -> float."""
+    from physlab.motion.evaluate import motion_statistics
+
+    if data_root is None and set(actions.values()) <= set(SHIPPED_CONTENTS):
+        w = lesson_windows()
+        return {text: float(w[f"speed_{content}"]) for text, content in actions.items()}
+    root = _bandai_dir(data_root, f"real_speeds({sorted(set(actions.values()))})")
+    out = {}
+    for text, content in actions.items():
+        clips = load_clips(root, contents=[content], progress=False)
+        if not clips:
+            raise ValueError(f"no Bandai-Namco clip has content {content!r}")
+        out[text] = float(motion_statistics(make_windows(clips).joints)[:, 2].mean())
     return out
 
 
@@ -707,8 +735,8 @@ def guidance_by_level(actions=tuple(LEVEL_ACTIONS), settings=None, seeds=range(8
 
 def guidance_by_level_figure(result, real=None):
     """Bars of :func:`guidance_by_level`: one panel per action, one bar per setting (mean
-    pelvis speed, the seeds as dots); dashed: the mean speed of ``real`` clips (dict action ->
-    (B, 40, 22, 3)), if given."""
+    pelvis speed, the seeds as dots); dashed: the real speed, if given: ``real`` dict action
+    -> a speed (m/s, e.g. :func:`real_speeds`) or real clips (B, 40, 22, 3)."""
     actions = list(result["speed"])
     fig, axes = _figure(len(actions), 3.3, 2.7)
     axes = np.atleast_1d(axes)
@@ -722,8 +750,8 @@ def guidance_by_level_figure(result, real=None):
             ax.plot(np.full(result["per_seed"][a].shape[1], i), result["per_seed"][a][i], ".",
                     color="k", ms=3, alpha=0.6)
         if real is not None and a in real:
-            v = motion_stats(real[a])["speed"]
-            ax.axhline(v, color="k", ls="--", lw=1.0, label=f"real clips {v:.2f} m/s")
+            v = (float(real[a]) if np.ndim(real[a]) == 0 else motion_stats(real[a])["speed"])
+            ax.axhline(v, color="k", ls="--", lw=1.0, label=f"real clips {v:.3g} m/s")
             ax.legend(fontsize=7, loc="upper left")
         ax.set_xticks(range(n))
         ax.set_xticklabels(ticks, fontsize=7)

@@ -142,12 +142,13 @@ MAX_GUIDANCE = 100.0
 #: A text guidance scale given as a pair ``(w_high, w_low)`` (:func:`check_guidance`) applies
 #: ``w_high`` at the noise levels ``t >= GUIDANCE_SPLIT * T`` and ``w_low`` below: a guidance
 #: interval in the spirit of Kynkäänniemi et al. (2024, "Applying guidance in a limited
-#: interval improves sample and distribution quality in diffusion models"). Measured on the
-#: text models here (``evaluate --adherence``, 64 clips per text): a run's speed is settled
-#: in the upper half (w_high 6 / 7 with w_low 4: runs −25 / −20 % of the real speed), a
-#: near-still action's pelvis sway in the lower half (the wave +30 % at a single w = 5,
-#: +8 % at (6, 4)); moving the split to 0.3 or 0.7 of T changed the speeds by at most 2
-#: points.
+#: interval improves sample and distribution quality in diffusion models"). Measured on a
+#: text base with a 6x finer pelvis path scale (``evaluate --adherence``, 64-128 clips per
+#: text; docs/motion_experiments.md): a run's speed is settled in the upper half (w_high 6 /
+#: 7 with w_low 4: runs −25 / −21 % of the real speed), a near-still action's pelvis sway in
+#: the lower half (the wave +30 % at a single w = 5, +8 % at (6, 4)); moving the split to 0.3
+#: or 0.7 of T changed the speeds by at most 2 points. The shipped text model samples with
+#: (6, 4.5) (``Generator.text_guidance``).
 GUIDANCE_SPLIT = 0.5
 
 

@@ -372,7 +372,11 @@ def test_shipped_lesson_windows_are_the_windows_of_the_clips(real_data, tmp_path
                 np.testing.assert_allclose(fresh[k], shipped[k], rtol=0, atol=1e-12, err_msg=k)
             else:
                 assert np.array_equal(fresh[k], shipped[k]), k
-    x, text = demo.walk_window(data_root=real_data / "mocap" / "bandai_namco")
+    root = real_data / "mocap" / "bandai_namco"
+    speeds = demo.real_speeds({"a person runs": "run"}, data_root=root)
+    shipped_speed = demo.real_speeds({"a person runs": "run"})["a person runs"]
+    assert speeds["a person runs"] == pytest.approx(shipped_speed, rel=1e-9) and 1.5 < shipped_speed
+    x, text = demo.walk_window(data_root=root)
     np.testing.assert_allclose(x, shipped["walk"], rtol=0, atol=1e-12)
     assert text == "a person walks"
 

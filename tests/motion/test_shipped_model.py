@@ -170,7 +170,9 @@ def test_text_only_runs_move_their_pelvis_like_real_runs(real_data, gen):
     horizontal acceleration <= 4x real): measured on these 4 seeds 1.05x the real speed and
     1.5x its acceleration (2026-11-29, with BODY_FREQUENCIES; 2.8x before); without the path
     low-pass (PATH_FREQUENCIES) 1.48x and 9.1x; the text model with the finer path scale
-    (since 2026-12-02) 0.87x and 1.03x."""
+    (2026-12-02) 0.87x and 1.03x; the text model trained longer and sampled with its own
+    text guidance (6 above T/2, 4.5 below; shipped since the evening of 2026-12-02) 0.98x and
+    0.89x."""
     from physlab.motion.evaluate import motion_statistics
 
     real = make_windows(load_clips(contents=["run"], progress=False)).joints
@@ -192,8 +194,9 @@ def test_the_text_model_walks_backwards_and_waves(real_data, gen):
     0.90 m/s, +28 % (real -1.34 m, 0.71 m/s; the base -0.14 m, 0.17 m/s; the text model before
     ``--style-drop`` -1.99 m, 1.03 m/s, +46 %); the wave's wrist travel 0.023 m/frame, 55 % of
     real (real 0.043; the base 0.007; before ``--style-drop`` 0.022). The text model shipped
-    since 2026-12-02 (``--pelvis-scale 4``): -1.79 m and 0.92 m/s, +31 %; the wave 0.024,
-    56 %."""
+    on 2026-12-02 (``--pelvis-scale 4``): -1.79 m and 0.92 m/s, +31 %; the wave 0.024,
+    56 %. The text model shipped since (``--pelvis-scale 5``, 20,000 steps, its own text
+    guidance 6 / 4.5): -1.51 m and 0.78 m/s, +10 %; the wave 0.028, 65 %."""
     from physlab.motion.evaluate import motion_statistics
 
     assert gen.text_model is not None, "the shipped checkpoint should carry a text model"
@@ -209,10 +212,12 @@ def test_the_text_model_walks_backwards_and_waves(real_data, gen):
 
 
 def test_the_text_model_keeps_near_still_actions_on_the_spot(real_data, gen):
-    """A wave or raised hands barely move the pelvis (0.02 m/s real). The shipped text model,
-    trained with the pelvis path's feature scale 4x finer (``train --pelvis-scale 4``), moves
-    it at 1.31x / 1.55x the real speed on these 4 seeds (2026-12-02); the text model before,
-    at the data's scale, swayed at 3.97x / 3.59x (docs/motion_experiments.md)."""
+    """A wave or raised hands barely move the pelvis (0.02 m/s real). The text model trained
+    with the pelvis path's feature scale 4x finer (``train --pelvis-scale 4``) moved it at
+    1.31x / 1.55x the real speed on these 4 seeds (2026-12-02); the shipped one (5x finer,
+    20,000 steps, its text guidance 4.5 on the lower half of the noise levels) at 1.30x /
+    0.62x; the text model before both, at the data's scale, swayed at 3.97x / 3.59x
+    (docs/motion_experiments.md)."""
     from physlab.motion.evaluate import motion_statistics
 
     for text, content in (("a person waves the right hand", "wave-right-hand"),
