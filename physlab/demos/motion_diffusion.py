@@ -247,7 +247,8 @@ def lesson_windows():
     ``real_walk`` / ``real_run`` / ``real_wave-right-hand`` (n, 40, 22, 3) the stride-10
     windows of the normal-style take-001 walk, run and wave (:func:`real_windows`,
     :data:`SHIPPED_CONTENTS`); ``speed_walk`` / ``speed_run`` / ``speed_wave-right-hand`` ()
-    the mean pelvis speed of all windows of every clip of the content (:func:`real_speeds`); ``held_out`` (6, 40, 22, 3) with
+    the mean pelvis speed of all windows of every clip of the content (:func:`real_speeds`);
+    ``held_out`` (6, 40, 22, 3) with
     ``held_out_text`` / ``held_out_clip_id`` (6,) str, the windows of
     :func:`physlab.motion.evaluate.held_out_windows` ``(6)``. Arrays are float64, metres,
     canonical window frame. Rebuild with :func:`write_lesson_windows`.

@@ -226,7 +226,7 @@ SHARED_CONFIG = ("feature_dim", "n_frames", "text_dim", "max_timesteps", "repres
 
 def check_text_guidance(guidance, name="guidance"):
     """``guidance`` checked: None, a float or a pair ``(w_high, w_low)``
-    (:func:`~physlab.motion.sampling.check_guidance`); ValueError naming ``name``."""
+    (:func:`~physlab.motion.conditions.check_guidance`); ValueError naming ``name``."""
     from .conditions import check_guidance
 
     return None if guidance is None else check_guidance(guidance, name)
@@ -249,7 +249,7 @@ def attach_text_model(control, text_base, out=None, dtype=torch.float16, guidanc
     ValueError naming the field. Feature scales (std) may differ (a text base trained with a
     finer pelvis path scale, ``train --pelvis-scale``): the text model then carries its own
     statistics, and the generator decodes its clips with them. ``guidance`` (None, a number
-    or a pair ``(w_high, w_low)``: :func:`~physlab.motion.sampling.check_guidance`) is the
+    or a pair ``(w_high, w_low)``: :func:`~physlab.motion.conditions.check_guidance`) is the
     text model's own default text guidance scale w, stored with it: :attr:`Generator.text_guidance
     <physlab.motion.sampling.Generator.text_guidance>` (None: the generator's
     :data:`~physlab.motion.sampling.TEXT_GUIDANCE`); a model trained longer follows its text

@@ -670,8 +670,7 @@ def evaluate(control, single_controlnet=None, windows=64, steps=None, guidance=N
                   if double_controlnet is None else str(double_controlnet),
                   "windows": len(conds),
                   "windows_available": data["n_available"], "steps": int(steps),
-                  "guidance": list(guidance) if isinstance(guidance, tuple) else guidance,
-                  "control_guidance": float(control_guidance),
+                  "guidance": guidance, "control_guidance": float(control_guidance),
                   "condition_scale": float(condition_scale),
                   "seed": int(seed), "min_t_r": MIN_T_R,
                   "test_takes": list(takes), "body_constraints": bool(body_constraints),
@@ -822,8 +821,7 @@ def text_adherence(control, contents=ADHERENCE_CONTENTS, seeds=4, steps=None, gu
         return {"auj": auj, "pj": pj, "skating": float(np.mean(foot_skating_ratio(J)))}
 
     return {"per_content": per, "accuracy": hits / total, "chance": 1.0 / len(contents),
-            "seeds": int(seeds), "steps": int(steps),
-            "guidance": list(guidance) if isinstance(guidance, tuple) else guidance,
+            "seeds": int(seeds), "steps": int(steps), "guidance": guidance,
             "quality": {"real": quality(real), "generated": quality(made)}}
 
 

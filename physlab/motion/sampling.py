@@ -50,9 +50,9 @@ import numpy as np
 import torch
 
 from .dataset import TRAJECTORY_JOINT_NAMES, TRAJECTORY_JOINTS
-from .conditions import (  # noqa: F401 (MAX_GUIDANCE, GUIDANCE_SPLIT, format_guidance:
-    GUIDANCE_SPLIT, KEYPOSE_AT, MAX_GUIDANCE, N_FRAMES,  # re-exported, as the builders)
-    build_condition, build_sketch, check_guidance, format_guidance, guidance_at)
+from .conditions import GUIDANCE_SPLIT  # noqa: F401 (re-exported with the builders below)
+from .conditions import (KEYPOSE_AT, MAX_GUIDANCE, N_FRAMES, build_condition, build_sketch,
+                         check_guidance, guidance_at)
 from .diffusion import classifier_free_guidance
 from .body import LEG_CHAINS, clip_bone_lengths, constrain_body
 from .features import ABS_BODY, ABS_PATH, ABS_PELVIS, decode_motion, encode_motion
