@@ -94,7 +94,8 @@ bench: $(STAMP)
 # Timed 2026-11-27/28 on the 2-core host on a fast day (runs/s32, runs/s34; the host varies up
 # to 2x from day to day): evaluator 4.3 min, base 8.4, control 34.0 + 16.7 for the two keypose
 # continuations, single ControlNet 21.6 - issue 12's models in 85 min - then align 45-47 min
-# (330-354 windows/s) and the lifter about 10 min: about 2 h 15 min in all. On a 2-core
+# (330-354 windows/s), the lifter about 10 min and the text base 21.5 min (20,000 steps,
+# 2026-12-02): about 2 h 45 min in all. On a 2-core
 # AVX2-only EPYC without AVX512-BF16 (2026-11-28; fp32 via MOTION_PRECISION=auto) the base
 # stage ran at 225 windows/s and the control stage at 88: the retrain takes 3-4x as long.
 # Resumable: rerun after an interruption (Ctrl-C or `kill` writes a checkpoint).
