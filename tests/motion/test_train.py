@@ -721,3 +721,53 @@ def test_pelvis_loss_weight_weights_the_path_columns_of_both_losses():
     for bad in (0.0, -1.0, float("nan"), 1000.0):
         with pytest.raises(ValueError, match="pelvis_loss_weight must be"):
             TrainConfig(pelvis_loss_weight=bad)
+
+
+def _make_recipe(target):
+    """The `physlab.motion.*` commands that `make -n TARGET` would run, as argv lists."""
+    import shlex
+    import shutil
+
+    if shutil.which("make") is None:
+        pytest.skip("make is not installed")
+    root = Path(__file__).resolve().parents[2]
+    out = subprocess.run(["make", "-n", "-s", "--no-print-directory", target,
+                          "STAMP=Makefile"],                # never (re)install .venv here
+                         cwd=root, capture_output=True, text=True, check=True).stdout
+    cmds = []
+    for line in out.replace("\\\n", " ").splitlines():
+        argv = shlex.split(line)
+        if "-m" in argv and argv[argv.index("-m") + 1].startswith("physlab.motion."):
+            i = argv.index("-m")
+            cmds.append(argv[i + 1:])
+    return cmds
+
+
+def test_quick_recipe_is_motion_models_first_stages_with_fewer_steps():
+    """`make motion-model-quick` (README: retraining in 90 min) must stay the recipe of issue
+    12's four models in `make motion-model` — the same evaluator and base, the control stage
+    without its keypose continuations and the single ControlNet with at most as many steps —
+    every other flag equal; every train command parses."""
+    from physlab.motion.train import _parser
+
+    full = [c for c in _make_recipe("motion-model") if c[0] == "physlab.motion.train"]
+    quick = _make_recipe("motion-model-quick")
+    assert [c[:2] for c in quick] == [["physlab.motion.evaluator", "train"]] + \
+        [["physlab.motion.train", "--num-threads"]] * 3 + [["physlab.motion.evaluate", "--control"]]
+    def no_paths(argv):
+        paths = {i + 1 for i, a in enumerate(argv) if a in ("--text-cache", "--out", "--export")}
+        return [a for i, a in enumerate(argv) if i not in paths]
+
+    full_evaluator = [c for c in _make_recipe("motion-model") if c[0] == "physlab.motion.evaluator"]
+    assert no_paths(quick[0]) == no_paths(full_evaluator[0])
+    parse = lambda argv: vars(_parser().parse_args(argv[1:]))              # noqa: E731
+    quick_train = [parse(c) for c in quick if c[0] == "physlab.motion.train"]
+    full_train = [parse(c) for c in full]
+    # base, first control stage, single ControlNet of motion-model
+    pairs = zip(quick_train, [full_train[0], full_train[1], full_train[4]], strict=True)
+    ignore = {"steps", "out", "base_ckpt", "export", "text_cache"}
+    for i, (q, f) in enumerate(pairs):
+        assert q["steps"] == f["steps"] if i == 0 else q["steps"] <= f["steps"], (q, f)
+        assert {k: v for k, v in q.items() if k not in ignore} == \
+            {k: v for k, v in f.items() if k not in ignore}, (q, f)
+    assert full_train[4]["single_controlnet"] and full_train[5]["stage"] == "align"
