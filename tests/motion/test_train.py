@@ -750,24 +750,26 @@ def test_quick_recipe_is_motion_models_first_stages_with_fewer_steps():
     every other flag equal; every train command parses."""
     from physlab.motion.train import _parser
 
-    full = [c for c in _make_recipe("motion-model") if c[0] == "physlab.motion.train"]
-    quick = _make_recipe("motion-model-quick")
-    assert [c[:2] for c in quick] == [["physlab.motion.evaluator", "train"]] + \
-        [["physlab.motion.train", "--num-threads"]] * 3 + [["physlab.motion.evaluate", "--control"]]
     def no_paths(argv):
         paths = {i + 1 for i, a in enumerate(argv) if a in ("--text-cache", "--out", "--export")}
         return [a for i, a in enumerate(argv) if i not in paths]
 
-    full_evaluator = [c for c in _make_recipe("motion-model") if c[0] == "physlab.motion.evaluator"]
+    def parse(argv):
+        return vars(_parser().parse_args(argv[1:]))
+
+    full = _make_recipe("motion-model")
+    quick = _make_recipe("motion-model-quick")
+    assert [c[:2] for c in quick] == [["physlab.motion.evaluator", "train"]] + \
+        [["physlab.motion.train", "--num-threads"]] * 3 + [["physlab.motion.evaluate", "--control"]]
+    full_evaluator = [c for c in full if c[0] == "physlab.motion.evaluator"]
     assert no_paths(quick[0]) == no_paths(full_evaluator[0])
-    parse = lambda argv: vars(_parser().parse_args(argv[1:]))              # noqa: E731
     quick_train = [parse(c) for c in quick if c[0] == "physlab.motion.train"]
-    full_train = [parse(c) for c in full]
-    # base, first control stage, single ControlNet of motion-model
-    pairs = zip(quick_train, [full_train[0], full_train[1], full_train[4]], strict=True)
+    full_train = [parse(c) for c in full if c[0] == "physlab.motion.train"]
+    # base (same steps), first control stage and single ControlNet (at most as many)
+    assert quick_train[0]["steps"] == full_train[0]["steps"]
     ignore = {"steps", "out", "base_ckpt", "export", "text_cache"}
-    for i, (q, f) in enumerate(pairs):
-        assert q["steps"] == f["steps"] if i == 0 else q["steps"] <= f["steps"], (q, f)
+    for q, f in zip(quick_train, [full_train[0], full_train[1], full_train[4]], strict=True):
+        assert q["steps"] <= f["steps"], (q, f)
         assert {k: v for k, v in q.items() if k not in ignore} == \
             {k: v for k, v in f.items() if k not in ignore}, (q, f)
     assert full_train[4]["single_controlnet"] and full_train[5]["stage"] == "align"
